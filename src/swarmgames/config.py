@@ -1,0 +1,359 @@
+"""Validated configuration of a swarmgames scenario.
+
+Every field is typed, carries its unit in its description, has a default and declares its
+constraints (pydantic v2). Unknown keys are rejected. Errors are collected into one
+:class:`~swarmgames.errors.ConfigError` whose message names each field path, the rule broken and
+the value given, e.g. ``game.beta: must be > 0 (got -1.0)``.
+
+Scenario files are TOML with one table per section::
+
+    name = "coverage"
+    seed = 7
+
+    [swarm]
+    n_robots = 7
+
+    [game]
+    alpha_b = 0.001
+
+References
+----------
+.. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
+   Communication Networks", ICRA 2022 workshop (arXiv 2205.02203).
+.. [2] RFC 3626, "Optimized Link State Routing Protocol (OLSR)", sections 6-10 and 18.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any, Literal
+
+import tomli_w
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from swarmgames.errors import ConfigError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised on Python 3.10 only
+    import tomli as tomllib
+
+__all__ = [
+    "CoverageConfig",
+    "GameConfig",
+    "NetworkConfig",
+    "OlsrConfig",
+    "RadioConfig",
+    "ScenarioConfig",
+    "SimConfig",
+    "SwarmConfig",
+    "format_validation_error",
+    "load_config",
+    "parse_config",
+    "to_toml",
+]
+
+
+class _Section(BaseModel):
+    """Base of every configuration section: immutable, strict about unknown keys."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+
+
+#: 802.11a minimum receiver sensitivity (dBm) per OFDM rate (Mbit/s), IEEE 802.11-2016
+#: Table 17-18; ns-3's preamble-detection gate is -82 dBm at 6 Mbit/s.
+SENSITIVITY_80211A_DBM: dict[int, float] = {
+    6: -82.0,
+    9: -81.0,
+    12: -79.0,
+    18: -77.0,
+    24: -74.0,
+    36: -70.0,
+    48: -66.0,
+    54: -65.0,
+}
+
+
+class RadioConfig(_Section):
+    """Radio propagation and reception (ns-3 3.44 defaults)."""
+
+    tx_power_dbm: float = Field(
+        16.0206, ge=-30, le=60, description="Transmit power, dBm (ns-3 WifiPhy default, 40 mW)."
+    )
+    loss_model: Literal["friis", "log_distance"] = Field(
+        "friis", description="Path-loss model: 'friis' or 'log_distance'."
+    )
+    frequency_hz: float = Field(
+        5.15e9, gt=0, description="Carrier frequency for Friis, Hz (ns-3 Friis default)."
+    )
+    system_loss: float = Field(1.0, ge=1.0, description="Friis system loss L, linear (>= 1).")
+    min_loss_db: float = Field(0.0, ge=0, description="Friis minimum loss, dB.")
+    exponent: float = Field(3.0, gt=0, description="Log-distance path-loss exponent n.")
+    reference_distance_m: float = Field(
+        1.0, gt=0, description="Log-distance reference distance d0, metres."
+    )
+    reference_loss_db: float = Field(
+        46.6777, description="Log-distance loss at the reference distance, dB."
+    )
+    shadowing_sigma_db: float = Field(
+        0.0, ge=0, description="Log-normal shadowing standard deviation, dB (0 = off)."
+    )
+    nakagami_m: float | None = Field(
+        None, ge=0.5, description="Nakagami-m fading shape (1 = Rayleigh); omit for no fading."
+    )
+    rx_threshold_dbm: float = Field(
+        -82.0, le=0, description="Reception threshold, dBm (-82 = 802.11a 6 Mbit/s broadcast)."
+    )
+
+
+class OlsrConfig(_Section):
+    """OLSR timing (RFC 3626 section 18, ns-3 defaults)."""
+
+    hello_interval_s: float = Field(2.0, gt=0, description="HELLO emission interval, seconds.")
+    tc_interval_s: float = Field(5.0, gt=0, description="TC emission interval, seconds.")
+    max_jitter_s: float = Field(
+        0.5, ge=0, description="Upper bound of the uniform message jitter, seconds."
+    )
+    neighbour_hold_s: float = Field(
+        6.0, gt=0, description="Neighbour/link hold time (3 x HELLO interval), seconds."
+    )
+    topology_hold_s: float = Field(
+        15.0, gt=0, description="Topology hold time (3 x TC interval), seconds."
+    )
+    duplicate_hold_s: float = Field(30.0, gt=0, description="Duplicate-set hold time, seconds.")
+    willingness: Literal[0, 1, 3, 6, 7] = Field(
+        3, description="Willingness to relay: 0 never, 3 default, 7 always."
+    )
+    hello_only: bool | Literal["auto"] = Field(
+        "auto",
+        description=(
+            "Skip TC messages. 'auto' skips them when the game needs only h <= 2 hops, where "
+            "TCs cannot change N_i(h)."
+        ),
+    )
+
+    @model_validator(mode="after")
+    def _holds_cover_intervals(self) -> OlsrConfig:
+        if self.neighbour_hold_s <= self.hello_interval_s:
+            raise ValueError(
+                "neighbour_hold_s must be > hello_interval_s "
+                f"(got {self.neighbour_hold_s} <= {self.hello_interval_s})"
+            )
+        if self.topology_hold_s <= self.tc_interval_s:
+            raise ValueError(
+                "topology_hold_s must be > tc_interval_s "
+                f"(got {self.topology_hold_s} <= {self.tc_interval_s})"
+            )
+        return self
+
+
+class NetworkConfig(_Section):
+    """How each robot's neighbourhood N_i(h) is obtained."""
+
+    backend: Literal["olsr", "oracle", "disk", "knn", "ns3"] = Field(
+        "olsr",
+        description=(
+            "Neighbourhood provider: 'olsr' (built-in RFC 3626 model), 'oracle' (instant "
+            "shortest paths), 'disk' (fixed radius), 'knn' (k nearest), 'ns3' (ns-3 simulator)."
+        ),
+    )
+    hops: int = Field(2, ge=1, le=64, description="Neighbourhood radius h, hops (paper: 2).")
+    disk_radius_m: float = Field(368.84, gt=0, description="Radius of the 'disk' baseline, metres.")
+    knn_k: int = Field(4, ge=1, description="Number of neighbours of the 'knn' baseline.")
+    radio: RadioConfig = Field(default_factory=RadioConfig)
+    olsr: OlsrConfig = Field(default_factory=OlsrConfig)
+
+
+class GameConfig(_Section):
+    """Stage graphical game and its solver (paper section II.B-C, Algorithm 1)."""
+
+    alpha_a: float = Field(1.0, ge=0, description="Weight of the unary potentials (paper: 1).")
+    alpha_b: float = Field(
+        0.001, ge=0, description="Weight of the pairwise potentials (paper: 0.001)."
+    )
+    solver: Literal["mean_field", "best_response", "exact", "centralised", "random"] = Field(
+        "mean_field", description="Local-game solver."
+    )
+    virtual_mean: bool = Field(
+        True, description="Replace neighbours with outside neighbours by virtual means (eq. 3)."
+    )
+    beta: float = Field(
+        50.0, gt=0, description="Inverse temperature of Q_j(x) ∝ exp(beta · E[M_i | x]), 1/payoff."
+    )
+    delta: float = Field(1e-6, gt=0, description="KL(Q_old || Q) stopping threshold, nats.")
+    max_iter: int = Field(200, ge=1, description="Maximum mean-field sweeps.")
+    action_choice: Literal["argmax", "sample"] = Field(
+        "argmax", description="How a robot picks its action from its own marginal."
+    )
+
+
+class SwarmConfig(_Section):
+    """The UAVs: number, start area, motion."""
+
+    n_robots: int = Field(7, ge=1, le=100_000, description="Number of UAVs.")
+    altitude_m: float = Field(30.0, ge=0, description="Flight altitude above ground, metres.")
+    start_center_m: tuple[float, float] = Field(
+        (0.0, 0.0), description="Centre of the take-off area (x, y), metres."
+    )
+    start_radius_m: float = Field(20.0, ge=0, description="Radius of the take-off disc, metres.")
+    step_m: float = Field(
+        10.0, gt=0, description="Distance flown by one move action per control period, metres."
+    )
+    n_headings: int = Field(
+        8, ge=1, le=64, description="Number of headings of the move actions (plus 'stay')."
+    )
+
+
+class CoverageConfig(_Section):
+    """Communication-aware coverage mission (paper section III, eqs. 4-5)."""
+
+    roi_mean_m: tuple[float, float] = Field(
+        (600.0, 0.0), description="Mean of the Gaussian region of interest (x, y), metres."
+    )
+    roi_cov_m2: tuple[tuple[float, float], tuple[float, float]] = Field(
+        ((40000.0, 0.0), (0.0, 40000.0)),
+        description="Covariance of the Gaussian region of interest, square metres.",
+    )
+    confidence: float = Field(
+        0.95, gt=0, lt=1, description="Probability mass of the ROI concentration ellipse."
+    )
+    grid_cell_m: float = Field(20.0, gt=0, description="ROI integration grid cell size, metres.")
+    t0_dbm: float = Field(16.0206, description="Signal model transmit power T0, dBm.")
+    l0_db: float = Field(46.6777, description="Signal model reference loss L0, dB.")
+    path_exponent: float = Field(3.0, gt=0, description="Signal model exponent n.")
+
+    @model_validator(mode="after")
+    def _covariance_positive_definite(self) -> CoverageConfig:
+        (a, b), (c, d) = self.roi_cov_m2
+        if b != c or a <= 0 or a * d - b * c <= 0:
+            raise ValueError(
+                f"roi_cov_m2 must be symmetric positive definite (got {self.roi_cov_m2})"
+            )
+        return self
+
+
+class SimConfig(_Section):
+    """The stage loop."""
+
+    control_period_s: float = Field(
+        1.0, gt=0, description="Time between two stage games, seconds (paper: 1 Hz)."
+    )
+    duration_s: float = Field(120.0, gt=0, description="Simulated mission time, seconds.")
+    warmup_s: float = Field(
+        10.0, ge=0, description="Network time before the first stage (OLSR start-up), seconds."
+    )
+
+
+class ScenarioConfig(_Section):
+    """A complete scenario: everything a run needs, and nothing it does not."""
+
+    name: str = Field(
+        "coverage",
+        min_length=1,
+        max_length=64,
+        pattern=r"^[A-Za-z0-9_.-]+$",
+        description="Scenario name; also the default run folder name.",
+    )
+    scenario: Literal["coverage"] = Field("coverage", description="Mission type.")
+    seed: int = Field(0, ge=0, description="Seed of the run's numpy random Generator.")
+    swarm: SwarmConfig = Field(default_factory=SwarmConfig)
+    network: NetworkConfig = Field(default_factory=NetworkConfig)
+    game: GameConfig = Field(default_factory=GameConfig)
+    coverage: CoverageConfig = Field(default_factory=CoverageConfig)
+    sim: SimConfig = Field(default_factory=SimConfig)
+
+
+def _rule(err: dict[str, Any]) -> str:
+    kind, ctx = err["type"], err.get("ctx") or {}
+    bounds = {
+        "greater_than": ">",
+        "greater_than_equal": ">=",
+        "less_than": "<",
+        "less_than_equal": "<=",
+    }
+    if kind in bounds:
+        return f"must be {bounds[kind]} {next(iter(ctx.values()))}"
+    if kind == "extra_forbidden":
+        return "is not a known field"
+    if kind == "missing":
+        return "is required"
+    if kind == "value_error":
+        return str(ctx.get("error", err["msg"]))
+    return err["msg"][0].lower() + err["msg"][1:]
+
+
+def format_validation_error(exc: ValidationError, source: str | None = None) -> ConfigError:
+    """Turn a pydantic ``ValidationError`` into a :class:`ConfigError` with one line per problem:
+    ``<field.path>: <rule> (got <value>)``."""
+    lines = []
+    for err in exc.errors():
+        path = ".".join(str(p) for p in err["loc"])
+        rule = _rule(err)
+        if err["type"] == "value_error" and "(got" in rule:
+            lines.append(f"{path}: {rule}" if path else rule)
+        else:
+            lines.append(f"{path}: {rule} (got {err['input']!r})")
+    where = f" in {source}" if source else ""
+    head = f"invalid configuration{where}: " + (
+        lines[0] if len(lines) == 1 else f"{len(lines)} problems"
+    )
+    msg = head if len(lines) == 1 else head + "\n  " + "\n  ".join(lines)
+    return ConfigError(msg, lines)
+
+
+def parse_config(data: dict[str, Any] | None = None, source: str | None = None) -> ScenarioConfig:
+    """Validate a mapping (as read from TOML) into a :class:`ScenarioConfig`.
+
+    Raises
+    ------
+    ConfigError
+        On an unknown key, a wrong type or an out-of-range value; the message names the field
+        path, the rule and the value.
+    """
+    try:
+        # JSON mode in strict mode: no silent coercion ("7" is not an int), yet TOML arrays
+        # are accepted where a tuple is declared.
+        return ScenarioConfig.model_validate_json(json.dumps(data or {}, default=str), strict=True)
+    except ValidationError as exc:
+        raise format_validation_error(exc, source) from None
+
+
+def load_config(path: str | Path) -> ScenarioConfig:
+    """Read and validate a TOML scenario file.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "s.toml"
+    >>> _ = p.write_text("[swarm]\\nn_robots = 5\\n")
+    >>> load_config(p).swarm.n_robots
+    5
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"configuration file not found: {path}") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read configuration file {path}: {exc}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path} is not valid TOML: {exc}") from None
+    return parse_config(data, source=str(path))
+
+
+def _plain(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {k: _plain(v) for k, v in obj.items() if v is not None}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    return obj
+
+
+def to_toml(config: ScenarioConfig) -> str:
+    """Serialise a configuration to TOML (fields left at ``None`` are omitted, which reads back
+    as the same ``None`` default)."""
+    return tomli_w.dumps(_plain(config.model_dump(mode="python")))

@@ -1,0 +1,73 @@
+"""Exception hierarchy of swarmgames.
+
+Every exception subclasses a built-in so that callers can catch it either by the specific
+swarmgames type or by the built-in they already expect (python-control's
+``ControlDimension(ValueError)`` pattern). Errors that carry data keep it as attributes.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "BackendUnavailableError",
+    "ConfigError",
+    "ConvergenceError",
+    "InputDataError",
+    "NotAvailableError",
+    "RunFolderError",
+    "SwarmgamesError",
+]
+
+
+class SwarmgamesError(Exception):
+    """Base class of every error raised on purpose by swarmgames."""
+
+
+class ConfigError(SwarmgamesError, ValueError):
+    """A configuration value or file is invalid.
+
+    Parameters
+    ----------
+    message : str
+        Human-readable description naming the field, the rule and the value.
+    errors : list of str, optional
+        One line per problem when several were found at once.
+    """
+
+    def __init__(self, message: str, errors: list[str] | None = None) -> None:
+        super().__init__(message)
+        self.errors = list(errors) if errors else [message]
+
+
+class InputDataError(SwarmgamesError, ValueError):
+    """An input data file (positions trace, ...) is malformed; the message names the row."""
+
+
+class RunFolderError(SwarmgamesError, FileExistsError):
+    """The output folder exists and is not empty, and ``force`` was not given."""
+
+
+class BackendUnavailableError(SwarmgamesError, ImportError):
+    """An optional backend (for example ns-3) is not installed; the message says how to get it."""
+
+
+class NotAvailableError(SwarmgamesError, NotImplementedError):
+    """A capability that this version of swarmgames does not provide yet."""
+
+
+class ConvergenceError(SwarmgamesError, RuntimeError):
+    """An iterative solver did not converge and the caller asked for that to be an error.
+
+    Parameters
+    ----------
+    message : str
+        What did not converge.
+    iterations : int
+        Iterations performed.
+    residual : float
+        The last value of the stopping criterion (for example the KL divergence).
+    """
+
+    def __init__(self, message: str, iterations: int, residual: float) -> None:
+        super().__init__(message)
+        self.iterations = iterations
+        self.residual = residual

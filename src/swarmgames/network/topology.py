@@ -1,0 +1,142 @@
+"""Immutable topology snapshots: every robot's routing-table view of the swarm at one instant.
+
+A snapshot stores, in sparse coordinate form sorted by ``(owner, dest)``, the entries of every
+robot's own routing table (jraph's ``GraphsTuple`` idea: flat ``senders``/``receivers`` arrays).
+Sparse storage keeps 10 000-robot swarms affordable: a robot only stores the destinations its
+routing protocol knows about.
+
+References
+----------
+.. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
+   Communication Networks", ICRA 2022 workshop, section II.A: N_i(h) = {j : Hops(i, j) <= h}.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["TopologySnapshot"]
+
+
+def _frozen(a: np.ndarray, dtype) -> np.ndarray:
+    out = np.ascontiguousarray(a, dtype=dtype)
+    if out is a:
+        out = out.copy()
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class TopologySnapshot:
+    """Routing-table view of a swarm of ``n_nodes`` robots at time ``time``.
+
+    Parameters
+    ----------
+    time : float
+        Simulated time of the snapshot, in seconds.
+    n_nodes : int
+        Number of robots, indexed ``0 .. n_nodes - 1``.
+    owner : ndarray of int32, shape (E,)
+        Robot whose routing table holds the entry.
+    dest : ndarray of int32, shape (E,)
+        Destination of the entry (never equal to ``owner``).
+    hops : ndarray of int16, shape (E,)
+        Hop count of the entry (>= 1).
+    next_hop : ndarray of int32, shape (E,), optional
+        First relay on the route; ``-1`` where the provider has no routes (disk, knn).
+
+    Notes
+    -----
+    Entries are sorted by ``(owner, dest)``; unreachable destinations have no entry.
+    The arrays are read-only: a time-varying network is a sequence of snapshots.
+    """
+
+    time: float
+    n_nodes: int
+    owner: np.ndarray
+    dest: np.ndarray
+    hops: np.ndarray
+    next_hop: np.ndarray = field(default=None)  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        owner = np.asarray(self.owner)
+        if self.next_hop is None:
+            object.__setattr__(self, "next_hop", np.full(owner.shape, -1, dtype=np.int32))
+        order = np.lexsort((np.asarray(self.dest), owner))
+        for name, dtype in (
+            ("owner", np.int32),
+            ("dest", np.int32),
+            ("hops", np.int16),
+            ("next_hop", np.int32),
+        ):
+            arr = np.asarray(getattr(self, name))
+            if arr.shape != owner.shape:
+                raise ValueError(f"{name} must have shape {owner.shape} (got {arr.shape})")
+            object.__setattr__(self, name, _frozen(arr[order], dtype))
+
+    @classmethod
+    def from_hop_matrix(
+        cls, time: float, hops: np.ndarray, next_hop: np.ndarray | None = None
+    ) -> TopologySnapshot:
+        """Build a snapshot from a dense ``(N, N)`` hop matrix (``<= 0`` or ``inf`` = no route,
+        the diagonal is ignored)."""
+        hops = np.asarray(hops, dtype=float)
+        n = hops.shape[0]
+        mask = np.isfinite(hops) & (hops > 0)
+        np.fill_diagonal(mask, False)
+        owner, dest = np.nonzero(mask)
+        nh = None if next_hop is None else np.asarray(next_hop)[owner, dest]
+        return cls(time, n, owner, dest, hops[owner, dest].astype(np.int16), nh)
+
+    @property
+    def n_entries(self) -> int:
+        """Number of routing-table entries over all robots."""
+        return int(self.owner.size)
+
+    def hop_matrix(self, unreachable: int = -1) -> np.ndarray:
+        """Dense ``(N, N)`` int16 matrix of hop counts; 0 on the diagonal, ``unreachable``
+        where robot i has no route to j."""
+        m = np.full((self.n_nodes, self.n_nodes), unreachable, dtype=np.int16)
+        m[self.owner, self.dest] = self.hops
+        np.fill_diagonal(m, 0)
+        return m
+
+    def neighbourhood_matrix(self, h: int) -> sp.csr_array:
+        """Boolean CSR matrix ``A`` with ``A[i, j]`` true iff ``j`` is in ``N_i(h)``.
+
+        ``N_i(h)`` always contains ``i`` itself (paper, section II.A).
+        """
+        if h < 1:
+            raise ValueError(f"h must be >= 1 (got {h})")
+        keep = self.hops <= h
+        rows = np.concatenate([self.owner[keep], np.arange(self.n_nodes, dtype=np.int32)])
+        cols = np.concatenate([self.dest[keep], np.arange(self.n_nodes, dtype=np.int32)])
+        data = np.ones(rows.size, dtype=bool)
+        return sp.csr_array((data, (rows, cols)), shape=(self.n_nodes, self.n_nodes))
+
+    def neighbourhood(self, i: int, h: int) -> np.ndarray:
+        """Sorted indices of ``N_i(h)``, ``i`` included."""
+        lo, hi = np.searchsorted(self.owner, [i, i + 1])
+        sel = self.dest[lo:hi][self.hops[lo:hi] <= h]
+        return np.sort(np.append(sel, np.int32(i)))
+
+    def degree(self) -> np.ndarray:
+        """Number of 1-hop (direct) neighbours of every robot, shape (N,)."""
+        return np.bincount(self.owner[self.hops == 1], minlength=self.n_nodes)
+
+    def to_networkx(self, h: int = 1):
+        """Directed networkx graph with an edge ``i -> j`` (attribute ``hops``) for every entry
+        of ``i``'s table with at most ``h`` hops."""
+        import networkx as nx
+
+        g = nx.DiGraph(time=self.time)
+        g.add_nodes_from(range(self.n_nodes))
+        keep = self.hops <= h
+        g.add_edges_from(
+            (int(a), int(b), {"hops": int(c)})
+            for a, b, c in zip(self.owner[keep], self.dest[keep], self.hops[keep], strict=True)
+        )
+        return g
