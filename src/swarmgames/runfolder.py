@@ -1,0 +1,159 @@
+"""Run folders: one folder per run, every file written atomically.
+
+A run folder holds the resolved ``config.toml``, data as CSV, figures as PNG and a
+``summary.json``. Each file is written to a temporary file in the same folder, flushed,
+``fsync``-ed and renamed over its final name (``os.replace`` is atomic on POSIX and Windows), so
+an interrupted run leaves complete files or none, never a half-written one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO, Any
+
+from swarmgames.errors import RunFolderError
+
+__all__ = ["RunFolder", "atomic_open", "atomic_write_bytes", "atomic_write_text"]
+
+
+@contextlib.contextmanager
+def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO]:
+    """Open a temporary file beside ``path`` and rename it to ``path`` on success.
+
+    On any exception inside the ``with`` block the temporary file is removed and ``path`` is
+    left untouched (absent, or with its previous content).
+
+    Parameters
+    ----------
+    path : str or Path
+        Final file name.
+    mode : {"w", "wb"}
+        Text or binary mode.
+    **kwargs
+        Passed to :func:`open` (e.g. ``encoding``, ``newline``).
+    """
+    if mode not in ("w", "wb"):
+        raise ValueError(f"mode must be 'w' or 'wb' (got {mode!r})")
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if mode == "w":
+        kwargs.setdefault("encoding", "utf-8")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, mode, **kwargs) as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically and return the path."""
+    with atomic_open(path, "w", newline="") as fh:
+        fh.write(text)
+    return Path(path)
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically and return the path."""
+    with atomic_open(path, "wb") as fh:
+        fh.write(data)
+    return Path(path)
+
+
+class RunFolder:
+    """The output folder of one run.
+
+    Parameters
+    ----------
+    path : str or Path
+        Folder to write into; created if missing.
+    force : bool, default False
+        Allow writing into an existing, non-empty folder (files of the same name are replaced).
+
+    Raises
+    ------
+    RunFolderError
+        If ``path`` exists, is not empty and ``force`` is false, or is not a folder.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> run = RunFolder(pathlib.Path(tempfile.mkdtemp()) / "demo")
+    >>> run.write_json("summary.json", {"ok": True}).name
+    'summary.json'
+    """
+
+    def __init__(self, path: str | Path, force: bool = False) -> None:
+        self.path = Path(path)
+        if self.path.exists():
+            if not self.path.is_dir():
+                raise RunFolderError(f"output path {self.path} exists and is not a folder")
+            if any(self.path.iterdir()) and not force:
+                raise RunFolderError(
+                    f"output folder {self.path} is not empty; use --force (force=True) to "
+                    "write into it, or choose another --out"
+                )
+        self.path.mkdir(parents=True, exist_ok=True)
+        self.written: list[Path] = []
+
+    def __repr__(self) -> str:
+        return f"RunFolder({str(self.path)!r})"
+
+    def file(self, name: str) -> Path:
+        """Path of ``name`` inside the folder (``name`` may not leave the folder)."""
+        p = (self.path / name).resolve()
+        if self.path.resolve() not in p.parents:
+            raise ValueError(f"file name must stay inside the run folder (got {name!r})")
+        return p
+
+    def _done(self, p: Path) -> Path:
+        self.written.append(p)
+        return p
+
+    def write_text(self, name: str, text: str) -> Path:
+        """Write a text file atomically."""
+        return self._done(atomic_write_text(self.file(name), text))
+
+    def write_bytes(self, name: str, data: bytes) -> Path:
+        """Write a binary file atomically."""
+        return self._done(atomic_write_bytes(self.file(name), data))
+
+    def write_json(self, name: str, obj: Any) -> Path:
+        """Write ``obj`` as indented JSON (numpy scalars and arrays are converted)."""
+        return self.write_text(name, json.dumps(obj, indent=2, default=_json_default) + "\n")
+
+    def write_csv(self, name: str, frame: Any, **kwargs: Any) -> Path:
+        """Write a pandas DataFrame as CSV without its index (unless ``index=True``)."""
+        kwargs.setdefault("index", False)
+        with atomic_open(self.file(name), "w", newline="") as fh:
+            frame.to_csv(fh, **kwargs)
+        return self._done(self.file(name))
+
+    def save_figure(self, name: str, fig: Any, dpi: int = 150) -> Path:
+        """Save a matplotlib figure (format from the file name) atomically."""
+        fmt = Path(name).suffix.lstrip(".") or "png"
+        with atomic_open(self.file(name), "wb") as fh:
+            fig.savefig(fh, format=fmt, dpi=dpi, bbox_inches="tight")
+        return self._done(self.file(name))
+
+
+def _json_default(obj: Any) -> Any:
+    import numpy as np
+
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"cannot serialise {type(obj).__name__} to JSON")
