@@ -49,9 +49,11 @@ __all__ = [
     "ScenarioConfig",
     "SimConfig",
     "SwarmConfig",
+    "builtin_scenarios",
     "format_validation_error",
     "load_config",
     "parse_config",
+    "resolve_scenario",
     "to_toml",
 ]
 
@@ -343,6 +345,84 @@ def load_config(path: str | Path) -> ScenarioConfig:
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path} is not valid TOML: {exc}") from None
     return parse_config(data, source=str(path))
+
+
+def builtin_scenarios() -> list[str]:
+    """Names of the scenario files shipped with swarmgames (``presets/*.toml``)."""
+    from importlib import resources
+
+    files = resources.files("swarmgames.presets").iterdir()
+    return sorted(f.name[:-5] for f in files if f.name.endswith(".toml"))
+
+
+def _builtin_text(name: str) -> str:
+    from importlib import resources
+
+    return (resources.files("swarmgames.presets") / f"{name}.toml").read_text(encoding="utf-8")
+
+
+def _set_path(data: dict[str, Any], assignment: str) -> None:
+    key, sep, raw = assignment.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise ConfigError(f"override must look like section.field=value (got {assignment!r})")
+    try:
+        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw.strip()  # a bare word is read as a string: backend=oracle
+    *parents, leaf = key.split(".")
+    node = data
+    for part in parents:
+        child = node.setdefault(part, {})
+        if not isinstance(child, dict):
+            raise ConfigError(f"override {key}: {part} is not a section (got {assignment!r})")
+        node = child
+    node[leaf] = value
+
+
+def resolve_scenario(
+    scenario: str | Path | None = None, overrides: list[str] | tuple[str, ...] = ()
+) -> ScenarioConfig:
+    """Resolve a scenario given as a built-in name or a TOML file path, then apply overrides.
+
+    Parameters
+    ----------
+    scenario : str or Path, optional
+        A built-in name (see :func:`builtin_scenarios`), a path to a TOML file, or ``None`` for
+        the default scenario ``"coverage"``.
+    overrides : sequence of str
+        Assignments ``"section.field=value"`` with TOML values, e.g. ``"swarm.n_robots=20"``.
+
+    Raises
+    ------
+    ConfigError
+        Unknown scenario name (with close matches), unreadable file, or invalid values.
+    """
+    import difflib
+
+    scenario = "coverage" if scenario is None else scenario
+    path = Path(scenario)
+    if path.suffix == ".toml" or path.exists():
+        if not path.is_file():
+            raise ConfigError(f"configuration file not found: {path}")
+        source, text = str(path), path.read_text(encoding="utf-8")
+    else:
+        names = builtin_scenarios()
+        if str(scenario) not in names:
+            close = difflib.get_close_matches(str(scenario), names, n=3)
+            hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
+            raise ConfigError(
+                f"unknown scenario {str(scenario)!r}{hint} (built-in: {', '.join(names)}; "
+                "or give a path to a .toml file)"
+            )
+        source, text = f"built-in scenario {scenario!r}", _builtin_text(str(scenario))
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{source} is not valid TOML: {exc}") from None
+    for assignment in overrides:
+        _set_path(data, assignment)
+    return parse_config(data, source=source)
 
 
 def _plain(obj: Any) -> Any:

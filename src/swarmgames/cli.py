@@ -1,0 +1,281 @@
+"""The ``swarmgames`` command line: a thin layer over the Python API.
+
+Exit codes: 0 success, 1 the run failed (or the capability is not available), 2 usage or
+configuration error (bad option, invalid scenario file, unknown name, existing output folder).
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, NoReturn
+
+import click
+
+from swarmgames import __version__
+from swarmgames.errors import (
+    ConfigError,
+    InputDataError,
+    NotAvailableError,
+    RunFolderError,
+    SwarmgamesError,
+)
+
+__all__ = ["cli", "main"]
+
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+#: Errors that mean "the user asked for something invalid" (exit 2); all other
+#: SwarmgamesErrors mean "the run failed" (exit 1).
+_USAGE_ERRORS = (ConfigError, InputDataError, RunFolderError)
+
+
+def _fail(exc: BaseException) -> NoReturn:
+    code = EXIT_USAGE if isinstance(exc, _USAGE_ERRORS) else EXIT_FAILED
+    click.secho(f"Error: {exc}", fg="red", err=True)
+    sys.exit(code)
+
+
+def _guarded(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """Turn swarmgames errors into a one-line message and the documented exit code."""
+    import functools
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        except SwarmgamesError as exc:
+            _fail(exc)
+        except KeyboardInterrupt:
+            click.secho("Interrupted; files already written are complete.", err=True)
+            sys.exit(130)
+
+    return wrapper
+
+
+def _not_available(what: str) -> NoReturn:
+    raise NotAvailableError(f"{what} is not available in swarmgames {__version__} yet")
+
+
+def _open_run_folder(out: Path | None, default_name: str, force: bool):
+    from swarmgames.runfolder import RunFolder
+
+    return RunFolder(out if out is not None else Path("runs") / default_name, force=force)
+
+
+out_option = click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Output folder (default: runs/<name>/).",
+)
+force_option = click.option(
+    "--force", is_flag=True, help="Write into an existing non-empty output folder."
+)
+set_option = click.option(
+    "--set",
+    "overrides",
+    multiple=True,
+    metavar="SECTION.FIELD=VALUE",
+    help="Override a configuration field, e.g. --set swarm.n_robots=20 (repeatable).",
+)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(__version__, prog_name="swarmgames")
+def cli() -> None:
+    """Decentralised UAV swarm control with graphical games over time-varying networks.
+
+    Each UAV reads its neighbourhood from its own (OLSR) routing table, solves its local
+    graphical game by mean-field inference and acts; swarmgames measures payoff, coverage,
+    equilibrium quality, communication and compute cost. Start with `swarmgames run`.
+    """
+
+
+# ----------------------------------------------------------------------------- run
+
+
+@cli.command()
+@click.argument("scenario", required=False)
+@out_option
+@force_option
+@set_option
+@click.option("--seed", type=click.IntRange(min=0), default=None, help="Override the seed.")
+@click.option("--no-progress", is_flag=True, help="Do not show a progress bar.")
+@_guarded
+def run(
+    scenario: str | None,
+    out: Path | None,
+    force: bool,
+    overrides: tuple[str, ...],
+    seed: int | None,
+    no_progress: bool,
+) -> None:
+    """Run a mission: SCENARIO is a built-in name (default: coverage) or a TOML file.
+
+    Writes config.toml, trajectory.csv, metrics.csv, swarm.csv, plots, an animation and
+    summary.json into the run folder, and prints a summary.
+    """
+    from swarmgames.config import resolve_scenario
+
+    extra = (*overrides, f"seed={seed}") if seed is not None else overrides
+    resolve_scenario(scenario, extra)
+    _not_available("the mission run (`swarmgames run`)")
+
+
+# ----------------------------------------------------------------------------- reproduce
+
+FIGURES = ("fig1", "fig2", "all")
+
+
+@cli.command()
+@click.argument("figure", type=click.Choice(FIGURES))
+@out_option
+@force_option
+@click.option(
+    "--backend",
+    type=click.Choice(["olsr", "ns3"]),
+    default="olsr",
+    show_default=True,
+    help="Network backend for Figure 1.",
+)
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@_guarded
+def reproduce(figure: str, out: Path | None, force: bool, backend: str, seed: int) -> None:
+    """Reproduce the paper's figures: fig1 (neighbours and hops against spacing),
+    fig2 (payoff against time; solve and integration time against swarm size), or all."""
+    _not_available(f"`swarmgames reproduce {figure}`")
+
+
+# ----------------------------------------------------------------------------- network
+
+
+@cli.group()
+def network() -> None:
+    """Replay position traces through the network layer and compare backends."""
+
+
+BACKENDS = ("olsr", "oracle", "disk", "knn", "ns3")
+
+
+@network.command()
+@click.option(
+    "--positions",
+    required=True,
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    help="CSV with columns t,node,x,y,z (metres, seconds); a row holds until the node's next.",
+)
+@click.option("--backend", type=click.Choice(BACKENDS), default="olsr", show_default=True)
+@click.option(
+    "--sample-every",
+    type=click.FloatRange(min=0, min_open=True),
+    default=0.5,
+    show_default=True,
+    help="Sampling interval of the routing tables, seconds.",
+)
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@out_option
+@force_option
+@_guarded
+def replay(
+    positions: Path, backend: str, sample_every: float, seed: int, out: Path | None, force: bool
+) -> None:
+    """Replay a positions trace and write every robot's hop counts (hops.csv), a per-time
+    summary (summary.csv) and a plot."""
+    _not_available("`swarmgames network replay`")
+
+
+@network.command()
+@click.option(
+    "--positions",
+    required=True,
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    help="CSV with columns t,node,x,y,z.",
+)
+@click.option(
+    "--backends",
+    default="olsr,ns3",
+    show_default=True,
+    help="Comma-separated backends to compare.",
+)
+@click.option("--sample-every", type=click.FloatRange(min=0, min_open=True), default=0.5)
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@out_option
+@force_option
+@_guarded
+def compare(
+    positions: Path,
+    backends: str,
+    sample_every: float,
+    seed: int,
+    out: Path | None,
+    force: bool,
+) -> None:
+    """Run several backends on the same trace and report how far their routing tables agree."""
+    names = [b.strip() for b in backends.split(",") if b.strip()]
+    unknown = [b for b in names if b not in BACKENDS]
+    if unknown or len(names) < 2:
+        raise click.BadParameter(
+            f"must name at least two of {', '.join(BACKENDS)} (got {backends!r})",
+            param_hint="--backends",
+        )
+    _not_available("`swarmgames network compare`")
+
+
+# ----------------------------------------------------------------------------- bench
+
+
+@cli.command()
+@click.option("--quick", is_flag=True, help="A short run (under two minutes).")
+@out_option
+@force_option
+@_guarded
+def bench(quick: bool, out: Path | None, force: bool) -> None:
+    """Time payoff integration, local-game solving, full stages and OLSR against swarm size."""
+    _not_available("`swarmgames bench`")
+
+
+# ----------------------------------------------------------------------------- config
+
+
+@cli.group()
+def config() -> None:
+    """Show and check scenario configurations."""
+
+
+@config.command("show")
+@click.argument("scenario", required=False)
+@set_option
+@_guarded
+def config_show(scenario: str | None, overrides: tuple[str, ...]) -> None:
+    """Print the resolved configuration of SCENARIO (a built-in name or a TOML file; default:
+    coverage) as TOML, every field included."""
+    from swarmgames.config import resolve_scenario, to_toml
+
+    click.echo(to_toml(resolve_scenario(scenario, overrides)), nl=False)
+
+
+@config.command("check")
+@click.argument("file", type=click.Path(dir_okay=False, path_type=Path))
+@_guarded
+def config_check(file: Path) -> None:
+    """Validate a scenario FILE: exit 0 if valid, 2 with one line per problem if not."""
+    from swarmgames.config import load_config
+
+    cfg = load_config(file)
+    click.echo(f"{file}: valid (scenario {cfg.name!r}, {cfg.swarm.n_robots} robots)")
+
+
+@config.command("list")
+def config_list() -> None:
+    """List the built-in scenarios."""
+    from swarmgames.config import builtin_scenarios
+
+    for name in builtin_scenarios():
+        click.echo(name)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Console-script entry point."""
+    cli.main(args=argv, prog_name="swarmgames")

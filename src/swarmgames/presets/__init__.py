@@ -1,0 +1,1 @@
+"""Built-in scenario files (TOML). ``swarmgames config show NAME`` prints one resolved."""

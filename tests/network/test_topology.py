@@ -1,0 +1,64 @@
+"""TopologySnapshot: the immutable routing-table view the rest of the system reads."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from swarmgames.network.topology import TopologySnapshot
+
+
+def _line3() -> TopologySnapshot:
+    # 0 - 1 - 2 in a line: 0 reaches 2 in two hops via 1.
+    hops = np.array([[0, 1, 2], [1, 0, 1], [2, 1, 0]], dtype=float)
+    nxt = np.array([[-1, 1, 1], [0, -1, 2], [1, 1, -1]])
+    return TopologySnapshot.from_hop_matrix(3.0, hops, nxt)
+
+
+def test_neighbourhood_contains_self_and_respects_h():
+    snap = _line3()
+    # Paper section II.A: N_i(h) = {j : Hops(i, j) <= h}, and i belongs to N_i.
+    assert snap.neighbourhood(0, 1).tolist() == [0, 1]
+    assert snap.neighbourhood(0, 2).tolist() == [0, 1, 2]
+    m = snap.neighbourhood_matrix(1).toarray()
+    assert m.tolist() == [[True, True, False], [True, True, True], [False, True, True]]
+
+
+def test_hop_matrix_and_degree():
+    snap = _line3()
+    assert snap.hop_matrix().tolist() == [[0, 1, 2], [1, 0, 1], [2, 1, 0]]
+    assert snap.degree().tolist() == [1, 2, 1]
+    assert snap.next_hop[snap.owner == 0].tolist() == [1, 1]
+
+
+def test_arrays_are_read_only_and_sorted():
+    snap = TopologySnapshot(0.0, 3, owner=[2, 0, 0], dest=[0, 2, 1], hops=[1, 1, 1])
+    assert snap.owner.tolist() == [0, 0, 2] and snap.dest.tolist() == [1, 2, 0]
+    with pytest.raises(ValueError, match="read-only"):
+        snap.hops[0] = 5
+    assert snap.next_hop.tolist() == [-1, -1, -1]
+
+
+def test_isolated_and_single_robot():
+    snap = TopologySnapshot.from_hop_matrix(0.0, np.zeros((1, 1)))
+    assert snap.n_entries == 0
+    assert snap.neighbourhood(0, 2).tolist() == [0]
+    iso = TopologySnapshot.from_hop_matrix(0.0, np.full((3, 3), np.inf))
+    assert iso.degree().tolist() == [0, 0, 0]
+    assert iso.hop_matrix().tolist() == [[0, -1, -1], [-1, 0, -1], [-1, -1, 0]]
+
+
+def test_networkx_export():
+    g = _line3().to_networkx(h=2)
+    assert g.number_of_nodes() == 3 and g.number_of_edges() == 6
+    assert g.edges[0, 2]["hops"] == 2
+
+
+def test_shape_mismatch_is_an_error():
+    with pytest.raises(ValueError, match="hops must have shape"):
+        TopologySnapshot(0.0, 2, owner=[0], dest=[1], hops=[1, 1])
+
+
+def test_bad_h():
+    with pytest.raises(ValueError, match="h must be >= 1"):
+        _line3().neighbourhood_matrix(0)

@@ -1,0 +1,137 @@
+"""Configuration validation: every bad value is reported with its field path, rule and value."""
+
+from __future__ import annotations
+
+import sys
+
+import pytest
+
+from swarmgames.config import (
+    ScenarioConfig,
+    builtin_scenarios,
+    load_config,
+    parse_config,
+    resolve_scenario,
+    to_toml,
+)
+from swarmgames.errors import ConfigError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:
+    import tomli as tomllib
+
+
+def test_defaults_follow_the_paper_and_ns3():
+    cfg = ScenarioConfig()
+    # Paper section III: h = 2, alpha_a = 1, alpha_b = 0.001.
+    assert (cfg.network.hops, cfg.game.alpha_a, cfg.game.alpha_b) == (2, 1.0, 0.001)
+    # REFERENCE.md section 2: ns-3 WifiPhy 16.0206 dBm, Friis at 5.15 GHz, -82 dBm gate.
+    assert cfg.network.radio.tx_power_dbm == 16.0206
+    assert cfg.network.radio.frequency_hz == 5.15e9
+    assert cfg.network.radio.rx_threshold_dbm == -82.0
+    # RFC 3626 section 18.2 / ns-3: HELLO 2 s, TC 5 s, holds 6 s / 15 s.
+    olsr = cfg.network.olsr
+    assert (olsr.hello_interval_s, olsr.tc_interval_s) == (2.0, 5.0)
+    assert (olsr.neighbour_hold_s, olsr.topology_hold_s) == (6.0, 15.0)
+
+
+def test_toml_round_trip_is_lossless():
+    cfg = ScenarioConfig()
+    assert parse_config(tomllib.loads(to_toml(cfg))) == cfg
+
+
+def test_unknown_key_names_the_field_path():
+    with pytest.raises(ConfigError, match=r"network\.olsr\.hello_intervall: is not a known field"):
+        parse_config({"network": {"olsr": {"hello_intervall": 2.0}}})
+
+
+def test_unknown_top_level_section():
+    with pytest.raises(ConfigError, match=r"^invalid configuration: swarms: is not a known field"):
+        parse_config({"swarms": {}})
+
+
+def test_wrong_type_names_field_and_value():
+    with pytest.raises(ConfigError, match=r"swarm\.n_robots: .*valid integer \(got '7'\)"):
+        parse_config({"swarm": {"n_robots": "7"}})
+
+
+def test_wrong_type_is_not_coerced():
+    # A float where an int is required is an error, not a silent truncation.
+    with pytest.raises(ConfigError, match=r"swarm\.n_robots"):
+        parse_config({"swarm": {"n_robots": 7.5}})
+    with pytest.raises(ConfigError, match=r"game\.virtual_mean"):
+        parse_config({"game": {"virtual_mean": 1}})
+
+
+def test_out_of_range_names_rule_and_value():
+    with pytest.raises(ConfigError, match=r"game\.beta: must be > 0(\.0)? \(got -1\.0\)"):
+        parse_config({"game": {"beta": -1.0}})
+    with pytest.raises(ConfigError, match=r"network\.hops: must be >= 1 \(got 0\)"):
+        parse_config({"network": {"hops": 0}})
+
+
+def test_cross_field_rule():
+    with pytest.raises(ConfigError, match=r"neighbour_hold_s must be > hello_interval_s"):
+        parse_config({"network": {"olsr": {"neighbour_hold_s": 1.0}}})
+
+
+def test_several_problems_reported_together():
+    with pytest.raises(ConfigError, match="2 problems") as info:
+        parse_config({"game": {"beta": 0.0, "delta": -1.0}})
+    assert len(info.value.errors) == 2
+
+
+def test_literal_choice_lists_allowed_values():
+    with pytest.raises(ConfigError, match=r"network\.backend: .*'olsr'.*\(got 'olrs'\)"):
+        parse_config({"network": {"backend": "olrs"}})
+
+
+def test_covariance_must_be_positive_definite():
+    with pytest.raises(ConfigError, match="symmetric positive definite"):
+        parse_config({"coverage": {"roi_cov_m2": [[1.0, 2.0], [2.0, 1.0]]}})
+
+
+def test_config_is_immutable():
+    cfg = ScenarioConfig()
+    with pytest.raises(ValueError, match="frozen"):
+        cfg.seed = 3  # type: ignore[misc]
+
+
+def test_load_config_reads_toml(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_text('name = "x"\n[swarm]\nn_robots = 12\n')
+    cfg = load_config(f)
+    assert (cfg.name, cfg.swarm.n_robots) == ("x", 12)
+
+
+def test_load_config_errors_name_the_file(tmp_path):
+    with pytest.raises(ConfigError, match="not found"):
+        load_config(tmp_path / "missing.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[swarm\n")
+    with pytest.raises(ConfigError, match=r"bad\.toml is not valid TOML"):
+        load_config(bad)
+    wrong = tmp_path / "wrong.toml"
+    wrong.write_text("[swarm]\nn_robots = 0\n")
+    with pytest.raises(ConfigError, match=r"in .*wrong\.toml: swarm\.n_robots: must be >= 1"):
+        load_config(wrong)
+
+
+@pytest.mark.parametrize("name", builtin_scenarios())
+def test_builtin_scenarios_are_valid(name):
+    assert resolve_scenario(name).name == name
+
+
+def test_unknown_scenario_suggests_close_matches():
+    with pytest.raises(ConfigError, match=r"did you mean 'coverage'"):
+        resolve_scenario("coverag")
+
+
+def test_overrides_are_typed_and_validated():
+    cfg = resolve_scenario(None, ["swarm.n_robots=20", "network.backend=oracle"])
+    assert (cfg.swarm.n_robots, cfg.network.backend) == (20, "oracle")
+    with pytest.raises(ConfigError, match=r"swarm\.n_robots: must be >= 1"):
+        resolve_scenario(None, ["swarm.n_robots=0"])
+    with pytest.raises(ConfigError, match="override must look like"):
+        resolve_scenario(None, ["swarm.n_robots"])
