@@ -135,3 +135,19 @@ def test_overrides_are_typed_and_validated():
         resolve_scenario(None, ["swarm.n_robots=0"])
     with pytest.raises(ConfigError, match="override must look like"):
         resolve_scenario(None, ["swarm.n_robots"])
+
+
+@pytest.mark.parametrize("annotated", [False, True])
+def test_round_trip_with_optional_fields(annotated):
+    cfg = parse_config({"network": {"radio": {"nakagami_m": 1.0}}, "seed": 9})
+    text = to_toml(cfg, annotated=annotated)
+    assert parse_config(tomllib.loads(text)) == cfg
+    assert parse_config(tomllib.loads(to_toml(ScenarioConfig(), annotated=annotated))) == (
+        ScenarioConfig()
+    )
+
+
+def test_annotated_toml_documents_units_and_ranges():
+    text = to_toml(ScenarioConfig(), annotated=True)
+    assert "# Transmit power, dBm (ns-3 WifiPhy default, 40 mW). [>= -30, <= 60]" in text
+    assert "# nakagami_m =   (unset)" in text

@@ -247,13 +247,16 @@ def config() -> None:
 @config.command("show")
 @click.argument("scenario", required=False)
 @set_option
+@click.option(
+    "--annotated", is_flag=True, help="Comment every field with its unit and allowed range."
+)
 @_guarded
-def config_show(scenario: str | None, overrides: tuple[str, ...]) -> None:
+def config_show(scenario: str | None, overrides: tuple[str, ...], annotated: bool) -> None:
     """Print the resolved configuration of SCENARIO (a built-in name or a TOML file; default:
     coverage) as TOML, every field included."""
     from swarmgames.config import resolve_scenario, to_toml
 
-    click.echo(to_toml(resolve_scenario(scenario, overrides)), nl=False)
+    click.echo(to_toml(resolve_scenario(scenario, overrides), annotated=annotated), nl=False)
 
 
 @config.command("check")

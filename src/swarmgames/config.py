@@ -425,15 +425,59 @@ def resolve_scenario(
     return parse_config(data, source=source)
 
 
-def _plain(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {k: _plain(v) for k, v in obj.items() if v is not None}
-    if isinstance(obj, (list, tuple)):
-        return [_plain(v) for v in obj]
-    return obj
+def _constraints(info: Any) -> str:
+    rules = []
+    for m in info.metadata:
+        for attr, sym in (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<=")):
+            v = getattr(m, attr, None)
+            if v is not None:
+                rules.append(f"{sym} {v}")
+    return f" [{', '.join(rules)}]" if rules else ""
 
 
-def to_toml(config: ScenarioConfig) -> str:
-    """Serialise a configuration to TOML (fields left at ``None`` are omitted, which reads back
-    as the same ``None`` default)."""
-    return tomli_w.dumps(_plain(config.model_dump(mode="python")))
+def _toml_value(value: Any) -> str:
+    """One-line TOML literal of a configuration value (arrays stay on one line)."""
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    return tomli_w.dumps({"v": value})[4:].strip()
+
+
+def _toml_lines(model: BaseModel, prefix: str, annotated: bool) -> list[str]:
+    lines: list[str] = []
+    subsections = []
+    for name, info in type(model).model_fields.items():
+        value = getattr(model, name)
+        if isinstance(value, BaseModel):
+            subsections.append((name, value))
+            continue
+        if annotated:
+            lines.append(f"# {info.description}{_constraints(info)}")
+        if value is None:
+            if annotated:
+                lines.append(f"# {name} =   (unset)")
+        else:
+            lines.append(f"{name} = {_toml_value(value)}")
+    for name, value in subsections:
+        lines += ["", f"[{prefix}{name}]"]
+        if annotated:
+            lines.append("# " + (type(value).__doc__ or "").strip().splitlines()[0])
+        lines += _toml_lines(value, f"{prefix}{name}.", annotated)
+    return lines
+
+
+def to_toml(config: ScenarioConfig, annotated: bool = False) -> str:
+    """Serialise a configuration to TOML.
+
+    Parameters
+    ----------
+    config : ScenarioConfig
+        The configuration.
+    annotated : bool, default False
+        Precede every field with a comment giving its description, unit and allowed range.
+
+    Notes
+    -----
+    Fields left at ``None`` are omitted (commented out when annotated), which reads back as the
+    same ``None`` default, so ``parse_config(tomllib.loads(to_toml(c))) == c``.
+    """
+    return "\n".join(_toml_lines(config, "", annotated)) + "\n"
