@@ -1,0 +1,122 @@
+"""Tests of the solver registry and the stage entry point."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from swarmgames.config import GameConfig
+from swarmgames.game import (
+    SOLVERS,
+    DisplacementActions,
+    FunctionPotentials,
+    GameSolution,
+    MeanFieldSolver,
+    evaluate_payoffs,
+    global_regret,
+    local_games,
+    local_regret,
+    make_solver,
+    solve_stage,
+)
+from tests.game.helpers import disk_snapshot, random_games
+
+MODEL = DisplacementActions.headings(5.0, 8, lower=[0.0, 0.0], upper=[200.0, 200.0])
+POT = FunctionPotentials(
+    lambda s: -np.linalg.norm(s - 100.0, axis=-1) / 50.0,
+    lambda s, t: -np.exp(-np.linalg.norm(s - t, axis=-1) / 20.0),
+)
+
+
+def _swarm(n=12, seed=0):
+    pos = np.random.default_rng(seed).uniform(0, 200, size=(n, 2))
+    return pos, disk_snapshot(pos, 70.0)
+
+
+@pytest.mark.parametrize("name", SOLVERS)
+def test_every_solver_returns_a_valid_action_per_robot(name):
+    pos, snap = _swarm(8)
+    cfg = GameConfig(solver=name, alpha_b=0.5, beta=20.0, exact_max_profiles=10**7)
+    solver = make_solver(cfg)
+    assert solver.name == name
+    out = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=0)
+    assert out.actions.shape == (8,)
+    valid = MODEL.valid(pos)
+    assert np.all(valid[np.arange(8), out.actions])
+    np.testing.assert_allclose(out.next_states, MODEL.apply(pos)[np.arange(8), out.actions])
+    sol = out.solution
+    assert isinstance(sol, GameSolution) and sol.solve_time_s >= 0
+    assert sol.to_frame().shape[0] == out.batch.n_games
+    if name == "centralised":
+        assert out.batch.n_games == 1 and out.batch.n_vars == 8
+    else:
+        assert out.batch.n_games == 8
+        if name == "no_virtual_mean":
+            assert not out.batch.is_virtual.any()
+
+
+def test_virtual_mean_switch_changes_the_games():
+    pos, snap = _swarm(15, 1)
+    with_v = solve_stage(make_solver(GameConfig(solver="mean_field")), snap, 1, pos, MODEL, POT)
+    without = solve_stage(
+        make_solver(GameConfig(solver="no_virtual_mean")), snap, 1, pos, MODEL, POT
+    )
+    assert with_v.batch.is_virtual.any() and not without.batch.is_virtual.any()
+    off = make_solver(GameConfig(solver="mean_field", virtual_mean=False))
+    assert not off.virtual_mean
+
+
+def test_low_temperature_stage_profiles_are_local_equilibria():
+    pos, snap = _swarm(20, 2)
+    solver = make_solver(GameConfig(beta=1e4, delta=1e-12, max_iter=500, alpha_b=0.5))
+    out = solve_stage(solver, snap, 2, pos, MODEL, POT)
+    pay = solver.evaluate(out.batch, POT)
+    assert np.mean(local_regret(pay, out.solution.profile) <= 1e-9) >= 0.95
+
+
+def test_global_regret_of_a_stage_is_non_negative():
+    pos, snap = _swarm(10, 3)
+    true = evaluate_payoffs(local_games(snap, 1, pos, MODEL, virtual_mean=False), POT, 1.0, 0.5)
+    out = solve_stage(make_solver(GameConfig(alpha_b=0.5)), snap, 1, pos, MODEL, POT)
+    assert np.all(global_regret(true, out.actions) >= 0)
+
+
+def test_sampled_actions_are_reproducible_and_follow_the_marginal():
+    batch, pot = random_games(0, 400, 3, 4, ragged=False)
+    solver = MeanFieldSolver(alpha_b=0.0, beta=1.0, action_choice="sample")
+    a1 = solver.solve(batch, pot, rng=5)
+    a2 = solver.solve(batch, pot, rng=np.random.default_rng(5))
+    np.testing.assert_array_equal(a1.actions, a2.actions)
+    # With one game repeated, the draws follow Q_owner (chi-square style tolerance).
+    one = batch.select([0] * 4000)
+    sol = solver.solve(one, pot.select([0] * 4000), rng=1)
+    freq = np.bincount(sol.actions, minlength=4) / 4000
+    np.testing.assert_allclose(freq, sol.marginals[0, 0], atol=0.04)
+
+
+def test_isolated_robot_stage():
+    pos = np.array([[10.0, 10.0], [190.0, 190.0]])
+    out = solve_stage(make_solver(GameConfig()), disk_snapshot(pos, 20.0), 2, pos, MODEL, POT)
+    assert out.batch.n_vars == 1 and out.solution.converged.all()
+    # Each isolated robot moves towards (100, 100): heading 45 degrees for robot 0.
+    assert out.actions[0] == 2 and out.actions[1] == 6
+
+
+def test_solver_parameters_are_validated():
+    with pytest.raises(ValueError, match=r"beta must be > 0 and finite \(got 0.0\)"):
+        MeanFieldSolver(beta=0.0)
+    with pytest.raises(ValueError, match=r"delta must be > 0"):
+        MeanFieldSolver(delta=-1.0)
+    with pytest.raises(ValueError, match=r"action_choice must be 'argmax' or 'sample'"):
+        MeanFieldSolver(action_choice="mode")  # type: ignore[arg-type]
+
+
+def test_config_rejects_unknown_solver_and_bad_values():
+    from swarmgames.errors import ConfigError
+
+    with pytest.raises((ConfigError, ValueError)):
+        GameConfig(solver="annealing")  # type: ignore[arg-type]
+    with pytest.raises((ConfigError, ValueError)):
+        GameConfig(beta=0.0)
+    with pytest.raises((ConfigError, ValueError)):
+        GameConfig(delta=0.0)
