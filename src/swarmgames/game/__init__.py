@@ -7,6 +7,7 @@ See ``docs/game.md`` for the guide and the contract with scenarios.
 from swarmgames.game.actions import ActionModel, DisplacementActions, action_mask_of
 from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
 from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.checks import check_action_model, check_potentials
 from swarmgames.game.equilibrium import (
     deviation_gains,
     enumerate_payoffs,
@@ -74,6 +75,8 @@ __all__ = [
     "build_local_game",
     "build_local_games",
     "centralised_game",
+    "check_action_model",
+    "check_potentials",
     "deviation_gains",
     "enumerate_payoffs",
     "evaluate_payoffs",

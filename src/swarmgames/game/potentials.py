@@ -106,6 +106,11 @@ class TablePotentials:
     ----------
     unary_table : ndarray, shape (B, K, A)
     pairwise_table : ndarray, shape (B, K, K, A, A), optional
+
+    Notes
+    -----
+    The tables belong to one batch: pair a sub-batch ``batch.select(g)`` with
+    ``potentials.select(g)``.
     """
 
     unary_table: np.ndarray
