@@ -21,7 +21,7 @@ from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.meanfield import mean_field
 from swarmgames.game.potentials import TablePotentials, evaluate_payoffs
 
-__all__ = ["bench_local_game", "pairwise_table_bytes", "random_local_games"]
+__all__ = ["bench_local_game", "bench_memory", "pairwise_table_bytes", "random_local_games"]
 
 
 def random_local_games(
@@ -130,4 +130,58 @@ def bench_local_game(
         "iterations_max": int(res.iterations.max()),
         "converged_fraction": float(res.converged.mean()),
         "pair_table_mb": pairwise_table_bytes(n_games, n_vars, n_actions, dtype) / 2**20,
+    }
+
+
+def bench_memory(
+    n_games: int = 10_000, n_vars: int = 10, n_actions: int = 9, seed: int = 0, dtype=np.float64
+) -> dict:
+    """Peak memory of evaluating the payoff tables and of mean-field solving, via tracemalloc.
+
+    The user's ``(B, K, K, A, A)`` pairwise table exists before the measurement and is not
+    counted in the peaks; ``pair_table_mb`` gives its size.
+
+    Returns
+    -------
+    dict
+        ``pair_table_mb``, ``eval_peak_mb`` (extra memory while building the tables),
+        ``solve_peak_mb`` (extra memory while solving, the tables already held), ``eval_s``,
+        ``solve_s`` and ``per_game_ms``.
+    """
+    import tracemalloc
+
+    batch, pot = random_local_games(n_games, n_vars, n_actions, seed)
+    if np.dtype(dtype) == np.float32:
+        pot = TablePotentials(
+            pot.unary_table.astype(np.float32), pot.pairwise_table.astype(np.float32)
+        )
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        base = tracemalloc.get_traced_memory()[0]
+        t0 = time.perf_counter()
+        payoffs = evaluate_payoffs(batch, pot, 1.0, 0.2, dtype=dtype)
+        eval_s = time.perf_counter() - t0
+        eval_peak = tracemalloc.get_traced_memory()[1] - base
+        tracemalloc.reset_peak()
+        base = tracemalloc.get_traced_memory()[0]
+        t0 = time.perf_counter()
+        res = mean_field(payoffs, 50.0, 1e-6, 200)
+        solve_s = time.perf_counter() - t0
+        solve_peak = tracemalloc.get_traced_memory()[1] - base
+    finally:
+        tracemalloc.stop()
+    mb = 2.0**20
+    return {
+        "n_games": int(n_games),
+        "n_vars": int(n_vars),
+        "n_actions": int(n_actions),
+        "dtype": np.dtype(dtype).name,
+        "pair_table_mb": pairwise_table_bytes(n_games, n_vars, n_actions, dtype) / mb,
+        "eval_peak_mb": eval_peak / mb,
+        "solve_peak_mb": solve_peak / mb,
+        "eval_s": eval_s,
+        "solve_s": solve_s,
+        "per_game_ms": solve_s / n_games * 1e3,
+        "iterations_mean": float(res.iterations.mean()),
     }

@@ -239,7 +239,10 @@ def mean_field(
         n_run = int(running.sum())
         if n_run == 0:
             break
-        if n_run < 0.75 * nw:
+        # Compact once half the working set has stopped: the copy of the pairwise table is
+        # then at most half its size (a stopped game left in the set is updated in vain, its
+        # result already written out).
+        if n_run < 0.5 * nw:
             rows, logits, q = rows[running], logits[running], q[running]
             w = None if w is None else w[running]
             running = np.ones(n_run, dtype=bool)
