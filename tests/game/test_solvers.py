@@ -18,6 +18,7 @@ from swarmgames.game import (
     local_regret,
     make_solver,
     solve_stage,
+    stage_regret,
 )
 from tests.game.helpers import disk_snapshot, random_games
 
@@ -78,7 +79,11 @@ def test_global_regret_of_a_stage_is_non_negative():
     pos, snap = _swarm(10, 3)
     true = evaluate_payoffs(local_games(snap, 1, pos, MODEL, virtual_mean=False), POT, 1.0, 0.5)
     out = solve_stage(make_solver(GameConfig(alpha_b=0.5)), snap, 1, pos, MODEL, POT)
-    assert np.all(global_regret(true, out.actions) >= 0)
+    regret = global_regret(true, out.actions)
+    assert np.all(regret >= 0)
+    np.testing.assert_array_equal(
+        stage_regret(snap, 1, pos, MODEL, POT, out.actions, 1.0, 0.5), regret
+    )
 
 
 def test_sampled_actions_are_reproducible_and_follow_the_marginal():

@@ -47,6 +47,7 @@ from swarmgames.game.solvers import (
     make_solver,
     normalise_rng,
     solve_stage,
+    stage_regret,
 )
 from swarmgames.game.virtual import neighbourhood_means, reaches_outside
 
@@ -95,4 +96,5 @@ __all__ = [
     "reaches_outside",
     "receive",
     "solve_stage",
+    "stage_regret",
 ]

@@ -33,6 +33,7 @@ import numpy as np
 
 from swarmgames.game.actions import ActionModel
 from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
+from swarmgames.game.equilibrium import global_regret
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.local import centralised_game, local_games
 from swarmgames.game.meanfield import check_parameters, mean_field
@@ -50,6 +51,7 @@ __all__ = [
     "make_solver",
     "normalise_rng",
     "solve_stage",
+    "stage_regret",
 ]
 
 SOLVERS = ("mean_field", "no_virtual_mean", "exact", "best_response", "centralised", "random")
@@ -413,3 +415,30 @@ def solve_stage(
         actions = sol.actions
     nxt = np.asarray(action_model.apply(states))[np.arange(states.shape[0]), actions]
     return StageSolution(actions, nxt, batch, sol, t_build)
+
+
+def stage_regret(
+    snapshot: TopologySnapshot,
+    h: int,
+    states: np.ndarray,
+    action_model: ActionModel,
+    potentials: Potentials,
+    joint_actions,
+    alpha_a: float = 1.0,
+    alpha_b: float = 0.001,
+) -> np.ndarray:
+    """Global (stage-game) regret of every robot at the realised joint action.
+
+    Robot i's payoff is eq. 1 over its neighbourhood N_i(h) in ``snapshot`` with the actual
+    ``states`` (no virtual means); its regret is the most it could gain by changing only its
+    own action, every other robot keeping its realised action. Pass the snapshot taken as the
+    truth (for example instantaneous BFS on the geometry rather than lagging routing tables).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        >= 0; 0 for every robot iff the joint action is a pure NE of the stage game.
+    """
+    batch = local_games(snapshot, h, states, action_model, virtual_mean=False)
+    payoffs = evaluate_payoffs(batch, potentials, alpha_a, alpha_b)
+    return global_regret(payoffs, joint_actions)
