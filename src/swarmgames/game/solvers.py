@@ -33,8 +33,8 @@ import numpy as np
 
 from swarmgames.game.actions import ActionModel
 from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
-from swarmgames.game.equilibrium import global_regret
 from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.equilibrium import global_regret
 from swarmgames.game.local import centralised_game, local_games
 from swarmgames.game.meanfield import check_parameters, mean_field
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
