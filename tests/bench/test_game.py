@@ -28,3 +28,12 @@ def test_pairwise_table_bytes_matches_the_array_size():
     assert pairwise_table_bytes(10_000, 10, 9, np.float32) == 324_000_000
     _, pot = random_local_games(2, 3, 4)
     assert pot.pairwise_table.nbytes == pairwise_table_bytes(2, 3, 4)
+
+
+def test_bench_stage_and_memory_records():
+    from swarmgames.bench.game import bench_memory, bench_stage
+
+    rec = bench_stage(30, 5.0, seed=1)
+    assert rec["n_robots"] == 30 and rec["k_max"] >= 1 and rec["converged_fraction"] <= 1.0
+    mem = bench_memory(50, 3, 4)
+    assert mem["eval_peak_mb"] > 0 and mem["pair_table_mb"] == 50 * 9 * 16 * 8 / 2**20
