@@ -125,3 +125,24 @@ def test_config_rejects_unknown_solver_and_bad_values():
         GameConfig(beta=0.0)
     with pytest.raises((ConfigError, ValueError)):
         GameConfig(delta=0.0)
+
+
+@pytest.mark.parametrize("buckets", [2, 3, 50])
+def test_buckets_give_the_same_stage_as_one_batch(buckets):
+    # Sequential summation is bit-identical whatever the padded width (meanfield docstring).
+    pos, snap = _swarm(25, 4)
+    solver = MeanFieldSolver(alpha_b=0.5, beta=20.0, summation="sequential")
+    one = solve_stage(solver, snap, 2, pos, MODEL, POT)
+    many = solve_stage(solver, snap, 2, pos, MODEL, POT, buckets=buckets)
+    np.testing.assert_array_equal(many.actions, one.actions)
+    np.testing.assert_array_equal(many.batch.owner, np.arange(25))
+    k = one.batch.n_vars
+    np.testing.assert_array_equal(many.batch.members[:, :k], one.batch.members)
+    np.testing.assert_array_equal(many.solution.marginals[:, :k], one.solution.marginals)
+    np.testing.assert_array_equal(many.solution.iterations, one.solution.iterations)
+
+
+def test_buckets_must_be_a_positive_integer():
+    pos, snap = _swarm(3)
+    with pytest.raises(ValueError, match=r"buckets must be an integer >= 0 \(got -1\)"):
+        solve_stage(make_solver(GameConfig()), snap, 2, pos, MODEL, POT, buckets=-1)

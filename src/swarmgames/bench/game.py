@@ -202,6 +202,7 @@ def bench_stage(
     radius_m: float = 368.84,
     beta: float = 50.0,
     alpha_b: float = 0.001,
+    buckets: int = 0,
 ) -> dict:
     """Time one stage of the whole pipeline on a random swarm: routing-table neighbourhoods →
     local games (virtual means) → potentials → mean-field → actions.
@@ -211,6 +212,9 @@ def bench_stage(
     section 2; BFS hop counts as settled OLSR, section 4). Actions: stay + 8 headings of 10 m.
     Potentials: a smooth unary (distance to the centre) and a pairwise link-quality term of
     the form of eq. 5 (log-distance signal), so the evaluation cost is representative.
+
+    buckets : int
+        Passed to :func:`~swarmgames.game.solvers.solve_stage` (0 = automatic).
 
     Returns
     -------
@@ -222,9 +226,8 @@ def bench_stage(
     from scipy.spatial import cKDTree
 
     from swarmgames.game.actions import DisplacementActions
-    from swarmgames.game.local import local_games
     from swarmgames.game.potentials import FunctionPotentials
-    from swarmgames.game.solvers import MeanFieldSolver
+    from swarmgames.game.solvers import MeanFieldSolver, solve_stage
     from swarmgames.network.topology import TopologySnapshot
 
     rng = np.random.default_rng(seed)
@@ -251,14 +254,15 @@ def bench_stage(
         lambda s: signal(np.linalg.norm(s - centre, axis=-1)) / 100.0,
         lambda s, t: signal(np.linalg.norm(s - t, axis=-1)),
     )
-    t0 = time.perf_counter()
-    batch = local_games(snap, h, pos, model)
-    build_s = time.perf_counter() - t0
-    sol = MeanFieldSolver(alpha_b=alpha_b, beta=beta).solve(batch, pot)
+    stage = solve_stage(
+        MeanFieldSolver(alpha_b=alpha_b, beta=beta), snap, h, pos, model, pot, buckets=buckets
+    )
+    batch, sol, build_s = stage.batch, stage.solution, stage.build_time_s
     k = batch.mask.sum(axis=1)
     return {
         "n_robots": int(n_robots),
         "h": int(h),
+        "buckets": int(buckets),
         "k_mean": float(k.mean()),
         "k_max": int(k.max()),
         "virtual_fraction": float(batch.is_virtual[batch.mask].mean()),

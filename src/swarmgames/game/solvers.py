@@ -35,7 +35,13 @@ from swarmgames.game.actions import ActionModel
 from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.equilibrium import global_regret
-from swarmgames.game.local import centralised_game, local_games
+from swarmgames.game.local import (
+    broadcast,
+    build_local_games,
+    centralised_game,
+    gather_views,
+    local_games,
+)
 from swarmgames.game.meanfield import check_parameters, mean_field
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
 from swarmgames.network.topology import TopologySnapshot
@@ -105,6 +111,53 @@ class GameSolution:
         """B."""
         return int(self.owner.size)
 
+    def select(self, games) -> GameSolution:
+        """The solution of a subset of games (indices or boolean mask over B)."""
+        idx = np.arange(self.n_games)[games]
+        return GameSolution(
+            solver=self.solver,
+            owner=self.owner[idx],
+            actions=self.actions[idx],
+            profile=self.profile[idx],
+            marginals=self.marginals[idx],
+            iterations=self.iterations[idx],
+            converged=self.converged[idx],
+            kl=self.kl[idx],
+            solve_time_s=self.solve_time_s,
+            eval_time_s=self.eval_time_s,
+        )
+
+    @classmethod
+    def concat(cls, solutions) -> GameSolution:
+        """The games of ``solutions`` in order, padded to the widest K and A; times add up."""
+        solutions = list(solutions)
+        if not solutions:
+            raise ValueError("solutions must not be empty")
+        k = max(s.profile.shape[1] for s in solutions)
+        a = max(s.marginals.shape[2] for s in solutions)
+        return cls(
+            solver=solutions[0].solver,
+            owner=np.concatenate([s.owner for s in solutions]),
+            actions=np.concatenate([s.actions for s in solutions]),
+            profile=np.concatenate(
+                [np.pad(s.profile, ((0, 0), (0, k - s.profile.shape[1]))) for s in solutions]
+            ),
+            marginals=np.concatenate(
+                [
+                    np.pad(
+                        s.marginals,
+                        ((0, 0), (0, k - s.marginals.shape[1]), (0, a - s.marginals.shape[2])),
+                    )
+                    for s in solutions
+                ]
+            ),
+            iterations=np.concatenate([s.iterations for s in solutions]),
+            converged=np.concatenate([s.converged for s in solutions]),
+            kl=np.concatenate([s.kl for s in solutions]),
+            solve_time_s=sum(s.solve_time_s for s in solutions),
+            eval_time_s=sum(s.eval_time_s for s in solutions),
+        )
+
     def to_frame(self):
         """One row per game: owner, action, iterations, converged, kl (pandas DataFrame)."""
         import pandas as pd
@@ -147,6 +200,7 @@ class _Base:
     alpha_a: float = 1.0
     alpha_b: float = 0.001
     dtype: str = "float64"
+    buckets: int = 0
 
     name = "base"
     virtual_mean = True
@@ -185,6 +239,8 @@ class MeanFieldSolver(_Base):
         Weights of eq. 1 (paper: 1, 0.001).
     dtype : {"float64", "float32"}
         Precision of the payoff tables and marginals.
+    buckets : int
+        Default size-bucket count of :func:`solve_stage` (0 = automatic).
     beta : float
         Inverse temperature, > 0.
     delta : float
@@ -307,7 +363,8 @@ def make_solver(config) -> _Base:
     ----------
     config : GameConfig
         Uses ``solver``, ``alpha_a``, ``alpha_b``, ``beta``, ``delta``, ``max_iter``,
-        ``action_choice``, ``virtual_mean``, ``precision`` and ``exact_max_profiles``.
+        ``action_choice``, ``virtual_mean``, ``precision``, ``exact_max_profiles`` and
+        ``buckets``.
 
     Returns
     -------
@@ -318,6 +375,7 @@ def make_solver(config) -> _Base:
         "alpha_a": config.alpha_a,
         "alpha_b": config.alpha_b,
         "dtype": getattr(config, "precision", "float64"),
+        "buckets": getattr(config, "buckets", 0),
     }
     if name in ("mean_field", "no_virtual_mean", "centralised"):
         return MeanFieldSolver(
@@ -370,12 +428,14 @@ def solve_stage(
     action_model: ActionModel,
     potentials: Potentials,
     rng: int | np.random.Generator | None = None,
+    *,
+    buckets: int | None = None,
 ) -> StageSolution:
     """Decide every robot's action for one control period.
 
     Builds each robot's local game from the routing tables (:func:`local_games`, with the
     solver's ``virtual_mean``), or the swarm-wide game for the centralised solver, solves them
-    in one batch and returns one action per robot.
+    and returns one action per robot.
 
     Parameters
     ----------
@@ -387,23 +447,34 @@ def solve_stage(
     action_model : ActionModel
     potentials : Potentials
     rng : int, Generator or None
+        Randomness of ``action_choice="sample"`` and of the random solver.
+    buckets : int, optional
+        Solve the local games in this many batches of similar size |N_i| (robots sorted by
+        |N_i|, equal counts). 0 = automatic: one batch per 128 robots, at most 8. Default:
+        the solver's ``buckets`` (``GameConfig.buckets``). A batch is padded to its largest game and the pairwise table
+        grows with K², so buckets save work and memory when neighbourhood sizes are uneven.
+        Results do not depend on it, except through the draws of ``rng``, and up to rounding
+        with ``summation="blas"`` (see :mod:`swarmgames.game.meanfield`).
 
     Returns
     -------
     StageSolution
+        ``batch`` and ``solution`` hold the games in robot order (padded to the widest game).
     """
+    if buckets is None:
+        buckets = getattr(solver, "buckets", 0)
+    if isinstance(buckets, bool) or not isinstance(buckets, (int, np.integer)) or buckets < 0:
+        raise ValueError(f"buckets must be an integer >= 0 (got {buckets})")
+    if buckets == 0:
+        buckets = int(np.clip(snapshot.n_nodes // 128, 1, 8))
     gen = normalise_rng(rng)
     t0 = time.perf_counter()
     states = np.asarray(states, dtype=float)
-    if getattr(solver, "centralised", False):
+    centralised = getattr(solver, "centralised", False)
+    if centralised:
         batch = centralised_game(snapshot, h, states, action_model)
-    else:
-        batch = local_games(
-            snapshot, h, states, action_model, virtual_mean=bool(solver.virtual_mean)
-        )
-    t_build = time.perf_counter() - t0
-    sol = solver.solve(batch, potentials, gen)
-    if getattr(solver, "centralised", False):
+        t_build = time.perf_counter() - t0
+        sol = solver.solve(batch, potentials, gen)
         actions = sol.profile[0].copy()
         if getattr(solver, "action_choice", "argmax") == "sample":
             q = sol.marginals[0]
@@ -412,6 +483,31 @@ def solve_stage(
             ok = batch.action_mask[0, np.arange(q.shape[0]), pick]
             actions = np.where(ok, pick, actions)
     else:
+        messages = broadcast(snapshot, h, states)
+        n = messages.n_robots
+        sizes = np.diff(messages.indptr)
+        if buckets == 1:
+            groups = [np.arange(n)]
+        else:
+            order = np.argsort(sizes, kind="stable")
+            groups = [g for g in np.array_split(order, min(int(buckets), n)) if g.size]
+        batches, sols = [], []
+        t_build = time.perf_counter() - t0
+        for owners in groups:
+            t1 = time.perf_counter()
+            part = build_local_games(
+                gather_views(messages, owners),
+                action_model,
+                virtual_mean=bool(solver.virtual_mean),
+            )
+            t_build += time.perf_counter() - t1
+            batches.append(part)
+            sols.append(solver.solve(part, potentials, gen))
+        inverse = np.argsort(np.concatenate(groups))
+        batch = batches[0] if len(batches) == 1 else LocalGameBatch.concat(batches)
+        sol = sols[0] if len(sols) == 1 else GameSolution.concat(sols)
+        if len(groups) > 1:
+            batch, sol = batch.select(inverse), sol.select(inverse)
         actions = sol.actions
     nxt = np.asarray(action_model.apply(states))[np.arange(states.shape[0]), actions]
     return StageSolution(actions, nxt, batch, sol, t_build)
