@@ -451,8 +451,9 @@ def solve_stage(
     buckets : int, optional
         Solve the local games in this many batches of similar size |N_i| (robots sorted by
         |N_i|, equal counts). 0 = automatic: one batch per 128 robots, at most 8. Default:
-        the solver's ``buckets`` (``GameConfig.buckets``). A batch is padded to its largest game and the pairwise table
-        grows with K², so buckets save work and memory when neighbourhood sizes are uneven.
+        the solver's ``buckets`` (``GameConfig.buckets``). A batch is padded to its largest
+        game and the pairwise table grows with K², so buckets save work and memory when
+        neighbourhood sizes are uneven.
         Results do not depend on it, except through the draws of ``rng``, and up to rounding
         with ``summation="blas"`` (see :mod:`swarmgames.game.meanfield`).
 
