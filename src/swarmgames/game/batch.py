@@ -27,6 +27,15 @@ def _frozen(a, dtype=None) -> np.ndarray:
     return out
 
 
+def _freeze_arrays(obj) -> None:
+    """Replace every ndarray field of a frozen dataclass by a read-only view (no copy)."""
+    for name, value in vars(obj).items():
+        if isinstance(value, np.ndarray) and value.flags.writeable:
+            view = value.view()
+            view.setflags(write=False)
+            object.__setattr__(obj, name, view)
+
+
 @dataclass(frozen=True, eq=False)
 class LocalGameBatch:
     """B local games as padded arrays (K = most variables, A = most actions, D = state size).

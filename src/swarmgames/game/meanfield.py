@@ -59,6 +59,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from swarmgames.game.batch import _freeze_arrays
 from swarmgames.game.potentials import GamePayoffs
 
 __all__ = ["MeanFieldResult", "masked_softmax", "mean_field", "seq_sum"]
@@ -133,6 +134,9 @@ class MeanFieldResult:
     iterations: np.ndarray
     converged: np.ndarray
     kl: np.ndarray
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
 
 
 def _pair_field(w: np.ndarray, q: np.ndarray, k: int, sequential: bool) -> np.ndarray:

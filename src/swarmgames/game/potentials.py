@@ -35,7 +35,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.batch import LocalGameBatch, _freeze_arrays
 
 __all__ = [
     "FunctionPotentials",
@@ -153,6 +153,9 @@ class GamePayoffs:
     mask: np.ndarray
     owner: np.ndarray
     members: np.ndarray
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
 
     @property
     def shape(self) -> tuple[int, int, int]:

@@ -33,7 +33,7 @@ import numpy as np
 
 from swarmgames.game.actions import ActionModel
 from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
-from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.batch import LocalGameBatch, _freeze_arrays
 from swarmgames.game.equilibrium import global_regret
 from swarmgames.game.local import (
     broadcast,
@@ -105,6 +105,9 @@ class GameSolution:
     kl: np.ndarray
     solve_time_s: float
     eval_time_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
 
     @property
     def n_games(self) -> int:
@@ -418,6 +421,9 @@ class StageSolution:
     batch: LocalGameBatch
     solution: GameSolution
     build_time_s: float = field(default=0.0)
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
 
 
 def solve_stage(
