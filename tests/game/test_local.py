@@ -158,3 +158,15 @@ def test_select_and_trim():
     batch = local_games(disk_snapshot(pos, 15.0), 1, pos, DisplacementActions.headings(1.0, 4))
     sub = batch.select([3]).trim()
     assert sub.members.tolist() == [[3]] and sub.n_actions == 5
+
+
+def test_action_model_without_actions_is_rejected():
+    class Empty:
+        n_actions = 0
+
+        def apply(self, states):
+            return states[..., None, :][..., :0, :]
+
+    pos = np.array([[0.0, 0.0], [10.0, 0.0]])
+    with pytest.raises(ValueError, match=r"action model n_actions must be >= 1 \(got 0\)"):
+        local_games(disk_snapshot(pos, 15.0), 1, pos, Empty())

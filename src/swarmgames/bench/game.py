@@ -275,3 +275,24 @@ def bench_stage(
         "iterations_max": int(sol.iterations.max()),
         "converged_fraction": float(sol.converged.mean()),
     }
+
+
+def main() -> None:  # pragma: no cover - a command-line convenience
+    """Print the standard game benchmarks (``python -m swarmgames.bench.game``)."""
+    import json
+
+    records = [
+        bench_local_game(1000, 8, 9, 0, beta=50.0),
+        bench_local_game(1000, 8, 9, 0, beta=5.0),
+        bench_local_game(1000, 8, 9, 0, beta=5.0, dtype=np.float32),
+        bench_memory(10_000, 10, 9),
+        bench_memory(10_000, 10, 9, dtype=np.float32),
+        bench_stage(1000, 8.0, buckets=1),
+        bench_stage(1000, 8.0, buckets=8),
+    ]
+    for rec in records:
+        print(json.dumps({k: round(v, 4) if isinstance(v, float) else v for k, v in rec.items()}))
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
