@@ -12,13 +12,8 @@ from swarmgames.game import (
     FunctionPotentials,
     GameSolution,
     MeanFieldSolver,
-    evaluate_payoffs,
-    global_regret,
-    local_games,
-    local_regret,
     make_solver,
     solve_stage,
-    stage_regret,
 )
 from tests.game.helpers import disk_snapshot, random_games
 
@@ -56,36 +51,6 @@ def test_every_solver_returns_a_valid_action_per_robot(name):
             assert not out.batch.is_virtual.any()
 
 
-def test_virtual_mean_switch_changes_the_games():
-    pos, snap = _swarm(15, 1)
-    with_v = solve_stage(make_solver(GameConfig(solver="mean_field")), snap, 1, pos, MODEL, POT)
-    without = solve_stage(
-        make_solver(GameConfig(solver="no_virtual_mean")), snap, 1, pos, MODEL, POT
-    )
-    assert with_v.batch.is_virtual.any() and not without.batch.is_virtual.any()
-    off = make_solver(GameConfig(solver="mean_field", virtual_mean=False))
-    assert not off.virtual_mean
-
-
-def test_low_temperature_stage_profiles_are_local_equilibria():
-    pos, snap = _swarm(20, 2)
-    solver = make_solver(GameConfig(beta=1e4, delta=1e-12, max_iter=500, alpha_b=0.5))
-    out = solve_stage(solver, snap, 2, pos, MODEL, POT)
-    pay = solver.evaluate(out.batch, POT)
-    assert np.mean(local_regret(pay, out.solution.profile) <= 1e-9) >= 0.95
-
-
-def test_global_regret_of_a_stage_is_non_negative():
-    pos, snap = _swarm(10, 3)
-    true = evaluate_payoffs(local_games(snap, 1, pos, MODEL, virtual_mean=False), POT, 1.0, 0.5)
-    out = solve_stage(make_solver(GameConfig(alpha_b=0.5)), snap, 1, pos, MODEL, POT)
-    regret = global_regret(true, out.actions)
-    assert np.all(regret >= 0)
-    np.testing.assert_array_equal(
-        stage_regret(snap, 1, pos, MODEL, POT, out.actions, 1.0, 0.5), regret
-    )
-
-
 def test_sampled_actions_are_reproducible_and_follow_the_marginal():
     batch, pot = random_games(0, 400, 3, 4, ragged=False)
     solver = MeanFieldSolver(alpha_b=0.0, beta=1.0, action_choice="sample")
@@ -97,14 +62,6 @@ def test_sampled_actions_are_reproducible_and_follow_the_marginal():
     sol = solver.solve(one, pot.select([0] * 4000), rng=1)
     freq = np.bincount(sol.actions, minlength=4) / 4000
     np.testing.assert_allclose(freq, sol.marginals[0, 0], atol=0.04)
-
-
-def test_isolated_robot_stage():
-    pos = np.array([[10.0, 10.0], [190.0, 190.0]])
-    out = solve_stage(make_solver(GameConfig()), disk_snapshot(pos, 20.0), 2, pos, MODEL, POT)
-    assert out.batch.n_vars == 1 and out.solution.converged.all()
-    # Each isolated robot moves towards (100, 100): heading 45 degrees for robot 0.
-    assert out.actions[0] == 2 and out.actions[1] == 6
 
 
 def test_solver_parameters_are_validated():
@@ -125,24 +82,3 @@ def test_config_rejects_unknown_solver_and_bad_values():
         GameConfig(beta=0.0)
     with pytest.raises((ConfigError, ValueError)):
         GameConfig(delta=0.0)
-
-
-@pytest.mark.parametrize("buckets", [2, 3, 50])
-def test_buckets_give_the_same_stage_as_one_batch(buckets):
-    # Sequential summation is bit-identical whatever the padded width (meanfield docstring).
-    pos, snap = _swarm(25, 4)
-    solver = MeanFieldSolver(alpha_b=0.5, beta=20.0, summation="sequential")
-    one = solve_stage(solver, snap, 2, pos, MODEL, POT)
-    many = solve_stage(solver, snap, 2, pos, MODEL, POT, buckets=buckets)
-    np.testing.assert_array_equal(many.actions, one.actions)
-    np.testing.assert_array_equal(many.batch.owner, np.arange(25))
-    k = one.batch.n_vars
-    np.testing.assert_array_equal(many.batch.members[:, :k], one.batch.members)
-    np.testing.assert_array_equal(many.solution.marginals[:, :k], one.solution.marginals)
-    np.testing.assert_array_equal(many.solution.iterations, one.solution.iterations)
-
-
-def test_buckets_must_be_a_positive_integer():
-    pos, snap = _swarm(3)
-    with pytest.raises(ValueError, match=r"buckets must be an integer >= 0 \(got -1\)"):
-        solve_stage(make_solver(GameConfig()), snap, 2, pos, MODEL, POT, buckets=-1)

@@ -214,7 +214,7 @@ def bench_stage(
     the form of eq. 5 (log-distance signal), so the evaluation cost is representative.
 
     buckets : int
-        Passed to :func:`~swarmgames.game.solvers.solve_stage` (0 = automatic).
+        Passed to :func:`~swarmgames.game.stage.solve_stage` (0 = automatic).
 
     Returns
     -------
@@ -227,7 +227,8 @@ def bench_stage(
 
     from swarmgames.game.actions import DisplacementActions
     from swarmgames.game.potentials import FunctionPotentials
-    from swarmgames.game.solvers import MeanFieldSolver, solve_stage
+    from swarmgames.game.solvers import MeanFieldSolver
+    from swarmgames.game.stage import solve_stage
     from swarmgames.network.topology import TopologySnapshot
 
     rng = np.random.default_rng(seed)

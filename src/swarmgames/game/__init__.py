@@ -43,12 +43,10 @@ from swarmgames.game.solvers import (
     GameSolution,
     MeanFieldSolver,
     RandomSolver,
-    StageSolution,
     make_solver,
     normalise_rng,
-    solve_stage,
-    stage_regret,
 )
+from swarmgames.game.stage import StageSolution, solve_stage, stage_regret
 from swarmgames.game.virtual import neighbourhood_means, reaches_outside
 
 __all__ = [
