@@ -12,6 +12,7 @@ from swarmgames.game import (
     FunctionPotentials,
     GameSolution,
     MeanFieldSolver,
+    Solver,
     make_solver,
     solve_stage,
 )
@@ -34,7 +35,7 @@ def test_every_solver_returns_a_valid_action_per_robot(name):
     pos, snap = _swarm(8)
     cfg = GameConfig(solver=name, alpha_b=0.5, beta=20.0, exact_max_profiles=10**7)
     solver = make_solver(cfg)
-    assert solver.name == name
+    assert solver.name == name and isinstance(solver, Solver)
     out = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=0)
     assert out.actions.shape == (8,)
     valid = MODEL.valid(pos)

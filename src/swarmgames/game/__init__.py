@@ -43,6 +43,7 @@ from swarmgames.game.solvers import (
     GameSolution,
     MeanFieldSolver,
     RandomSolver,
+    Solver,
     make_solver,
     normalise_rng,
 )
@@ -66,6 +67,7 @@ __all__ = [
     "Messages",
     "Potentials",
     "RandomSolver",
+    "Solver",
     "StageSolution",
     "TablePotentials",
     "action_mask_of",

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -43,6 +43,7 @@ __all__ = [
     "GameSolution",
     "MeanFieldSolver",
     "RandomSolver",
+    "Solver",
     "make_solver",
     "normalise_rng",
 ]
@@ -183,6 +184,44 @@ def _pure_solution(name, payoffs, profile, iterations, converged, t0, marginals=
         kl=np.zeros(b),
         solve_time_s=time.perf_counter() - t0,
     )
+
+
+@runtime_checkable
+class Solver(Protocol):
+    """What every solver offers (the object :func:`make_solver` returns).
+
+    Attributes
+    ----------
+    name : str
+        Registry name (one of :data:`SOLVERS`).
+    virtual_mean : bool
+        Whether stage solving builds the games with virtual means (eq. 3).
+    buckets : int
+        Default number of size buckets of stage solving (0 = automatic).
+    """
+
+    name: str
+    virtual_mean: bool
+    buckets: int
+
+    def evaluate(self, batch: LocalGameBatch, potentials: Potentials) -> GamePayoffs:
+        """Weighted payoff tables of ``batch``."""
+        ...
+
+    def solve(
+        self,
+        batch: LocalGameBatch,
+        potentials: Potentials,
+        rng: int | np.random.Generator | None = None,
+    ) -> GameSolution:
+        """Solve every game of ``batch``."""
+        ...
+
+    def solve_payoffs(
+        self, payoffs: GamePayoffs, rng: int | np.random.Generator | None = None
+    ) -> GameSolution:
+        """Solve every game of already evaluated tables."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -346,7 +385,7 @@ class RandomSolver(_Base):
         )
 
 
-def make_solver(config) -> _Base:
+def make_solver(config) -> Solver:
     """The solver a :class:`~swarmgames.config.GameConfig` names, configured from it.
 
     Parameters

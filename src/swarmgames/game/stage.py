@@ -29,7 +29,7 @@ from swarmgames.game.local import (
     local_games,
 )
 from swarmgames.game.potentials import Potentials, evaluate_payoffs
-from swarmgames.game.solvers import GameSolution, _Base, normalise_rng
+from swarmgames.game.solvers import GameSolution, Solver, normalise_rng
 from swarmgames.network.topology import TopologySnapshot
 
 __all__ = ["StageSolution", "solve_stage", "stage_regret"]
@@ -63,7 +63,7 @@ class StageSolution:
 
 
 def solve_stage(
-    solver: _Base,
+    solver: Solver,
     snapshot: TopologySnapshot,
     h: int,
     states: np.ndarray,
