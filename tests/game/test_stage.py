@@ -89,3 +89,14 @@ def test_buckets_must_be_a_positive_integer():
     pos, snap = _swarm(3)
     with pytest.raises(ValueError, match=r"buckets must be an integer >= 0 \(got -1\)"):
         solve_stage(make_solver(GameConfig()), snap, 2, pos, MODEL, POT, buckets=-1)
+
+
+def test_centralised_sampled_actions_are_valid_and_reproducible():
+    pos, snap = _swarm(10, 5)
+    solver = make_solver(GameConfig(solver="centralised", action_choice="sample", beta=1.0))
+    a = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=3)
+    b = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=3)
+    np.testing.assert_array_equal(a.actions, b.actions)
+    assert np.all(MODEL.valid(pos)[np.arange(10), a.actions])
+    # At beta = 1 the marginals are spread out: sampling differs from the argmax somewhere.
+    assert np.any(a.actions != a.solution.profile[0])

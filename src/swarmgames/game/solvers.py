@@ -46,6 +46,7 @@ __all__ = [
     "Solver",
     "make_solver",
     "normalise_rng",
+    "sample_actions",
 ]
 
 SOLVERS = ("mean_field", "no_virtual_mean", "exact", "best_response", "centralised", "random")
@@ -56,6 +57,22 @@ def normalise_rng(seed: int | np.random.Generator | None) -> np.random.Generator
     if isinstance(seed, np.random.Generator):
         return seed
     return np.random.default_rng(seed)
+
+
+def sample_actions(
+    marginals: np.ndarray,
+    action_mask: np.ndarray,
+    fallback: np.ndarray,
+    rng: int | np.random.Generator | None,
+) -> np.ndarray:
+    """One draw per row from ``marginals`` ``(M, A)`` (inverse CDF, one uniform per row, in
+    row order); ``fallback`` where rounding lands on an invalid action."""
+    gen = normalise_rng(rng)
+    draw = gen.random(marginals.shape[0])
+    cdf = np.cumsum(marginals, axis=1)
+    pick = np.minimum((cdf < draw[:, None]).sum(axis=1), marginals.shape[1] - 1)
+    ok = action_mask[np.arange(marginals.shape[0]), pick]
+    return np.where(ok, pick, fallback)
 
 
 @dataclass(frozen=True, eq=False)
@@ -317,12 +334,7 @@ class MeanFieldSolver(_Base):
         profile = np.where(payoffs.mask, masked.argmax(axis=2), 0)
         actions = profile[:, 0].copy()
         if self.action_choice == "sample":
-            gen = normalise_rng(rng)
-            draw = gen.random(q.shape[0])
-            cdf = np.cumsum(q[:, 0], axis=1)
-            pick = np.minimum((cdf < draw[:, None]).sum(axis=1), q.shape[2] - 1)
-            ok = payoffs.action_mask[np.arange(q.shape[0]), 0, pick]
-            actions = np.where(ok, pick, actions)
+            actions = sample_actions(q[:, 0], payoffs.action_mask[:, 0], actions, rng)
         return GameSolution(
             solver=self.name,
             owner=payoffs.owner,

@@ -29,7 +29,7 @@ from swarmgames.game.local import (
     local_games,
 )
 from swarmgames.game.potentials import Potentials, evaluate_payoffs
-from swarmgames.game.solvers import GameSolution, Solver, normalise_rng
+from swarmgames.game.solvers import GameSolution, Solver, normalise_rng, sample_actions
 from swarmgames.network.topology import TopologySnapshot
 
 __all__ = ["StageSolution", "solve_stage", "stage_regret"]
@@ -120,11 +120,7 @@ def solve_stage(
         sol = solver.solve(batch, potentials, gen)
         actions = sol.profile[0].copy()
         if getattr(solver, "action_choice", "argmax") == "sample":
-            q = sol.marginals[0]
-            draw = gen.random(q.shape[0])
-            pick = np.minimum((np.cumsum(q, axis=1) < draw[:, None]).sum(axis=1), q.shape[1] - 1)
-            ok = batch.action_mask[0, np.arange(q.shape[0]), pick]
-            actions = np.where(ok, pick, actions)
+            actions = sample_actions(sol.marginals[0], batch.action_mask[0], actions, gen)
     else:
         messages = broadcast(snapshot, h, states)
         n = messages.n_robots
