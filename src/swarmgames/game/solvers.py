@@ -1,0 +1,437 @@
+"""Local-game solvers behind one interface, the solver registry and the stage-level entry point.
+
+Every solver is a configured, immutable object with
+
+    solve(batch, potentials, rng=None) -> GameSolution      # all B local games at once
+    solve_payoffs(payoffs, rng=None)   -> GameSolution      # same, on evaluated tables
+
+Solvers (``name``):
+
+``mean_field``        Algorithm 1 (:mod:`swarmgames.game.meanfield`), on virtual-mean games.
+``no_virtual_mean``   the same on games with the reported states unchanged (paper's comparison).
+``exact``             the M-maximising profile by enumeration (small neighbourhoods).
+``best_response``     best-response dynamics from the unary argmax.
+``centralised``       mean-field over the whole swarm as one game (see ``stage.solve_stage``).
+``random``            a uniformly random valid action.
+
+:func:`swarmgames.game.stage.solve_stage` is what a simulation loop calls once per control
+period: it builds the games from the routing tables and returns one action per robot.
+
+References
+----------
+.. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
+   Communication Networks", ICRA 2022 workshop, section II.C and Algorithm 1.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Literal, Protocol, runtime_checkable
+
+import numpy as np
+
+from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
+from swarmgames.game.batch import LocalGameBatch, _freeze_arrays
+from swarmgames.game.meanfield import check_parameters, mean_field
+from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
+
+__all__ = [
+    "SOLVERS",
+    "BestResponseSolver",
+    "ExactSolver",
+    "GameSolution",
+    "MeanFieldSolver",
+    "RandomSolver",
+    "Solver",
+    "make_solver",
+    "normalise_rng",
+    "sample_actions",
+]
+
+SOLVERS = ("mean_field", "no_virtual_mean", "exact", "best_response", "centralised", "random")
+
+
+def normalise_rng(seed: int | np.random.Generator | None) -> np.random.Generator:
+    """A ``numpy.random.Generator`` from a seed, a Generator (returned as is) or None."""
+    if isinstance(seed, np.random.Generator):
+        return seed
+    return np.random.default_rng(seed)
+
+
+def sample_actions(
+    marginals: np.ndarray,
+    action_mask: np.ndarray,
+    fallback: np.ndarray,
+    rng: int | np.random.Generator | None,
+) -> np.ndarray:
+    """One draw per row from ``marginals`` ``(M, A)`` (inverse CDF, one uniform per row, in
+    row order); ``fallback`` where rounding lands on an invalid action."""
+    gen = normalise_rng(rng)
+    draw = gen.random(marginals.shape[0])
+    cdf = np.cumsum(marginals, axis=1)
+    pick = np.minimum((cdf < draw[:, None]).sum(axis=1), marginals.shape[1] - 1)
+    ok = action_mask[np.arange(marginals.shape[0]), pick]
+    return np.where(ok, pick, fallback)
+
+
+@dataclass(frozen=True, eq=False)
+class GameSolution:
+    """Result of solving B local games.
+
+    Parameters
+    ----------
+    solver : str
+        Name of the solver.
+    owner : ndarray of int32, shape (B,)
+    actions : ndarray of int, shape (B,)
+        Action chosen by each owner (variable 0 of its game).
+    profile : ndarray of int, shape (B, K)
+        Pure action of every variable (argmax of its marginal for mean-field); 0 at padding.
+    marginals : ndarray, shape (B, K, A)
+        Q_k(x); one-hot for the pure baselines, uniform over valid actions for ``random``.
+    iterations : ndarray of int, shape (B,)
+    converged : ndarray of bool, shape (B,)
+    kl : ndarray, shape (B,)
+        Final KL(Q_old ‖ Q) (mean-field), 0 for the pure baselines.
+    solve_time_s : float
+        Wall time of the solve (all B games), seconds.
+    eval_time_s : float
+        Wall time of evaluating the potentials, seconds (0 for ``solve_payoffs``).
+    """
+
+    solver: str
+    owner: np.ndarray
+    actions: np.ndarray
+    profile: np.ndarray
+    marginals: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+    kl: np.ndarray
+    solve_time_s: float
+    eval_time_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
+
+    @property
+    def n_games(self) -> int:
+        """B."""
+        return int(self.owner.size)
+
+    def select(self, games) -> GameSolution:
+        """The solution of a subset of games (indices or boolean mask over B)."""
+        idx = np.arange(self.n_games)[games]
+        return GameSolution(
+            solver=self.solver,
+            owner=self.owner[idx],
+            actions=self.actions[idx],
+            profile=self.profile[idx],
+            marginals=self.marginals[idx],
+            iterations=self.iterations[idx],
+            converged=self.converged[idx],
+            kl=self.kl[idx],
+            solve_time_s=self.solve_time_s,
+            eval_time_s=self.eval_time_s,
+        )
+
+    @classmethod
+    def concat(cls, solutions) -> GameSolution:
+        """The games of ``solutions`` in order, padded to the widest K and A; times add up."""
+        solutions = list(solutions)
+        if not solutions:
+            raise ValueError("solutions must not be empty")
+        k = max(s.profile.shape[1] for s in solutions)
+        a = max(s.marginals.shape[2] for s in solutions)
+        return cls(
+            solver=solutions[0].solver,
+            owner=np.concatenate([s.owner for s in solutions]),
+            actions=np.concatenate([s.actions for s in solutions]),
+            profile=np.concatenate(
+                [np.pad(s.profile, ((0, 0), (0, k - s.profile.shape[1]))) for s in solutions]
+            ),
+            marginals=np.concatenate(
+                [
+                    np.pad(
+                        s.marginals,
+                        ((0, 0), (0, k - s.marginals.shape[1]), (0, a - s.marginals.shape[2])),
+                    )
+                    for s in solutions
+                ]
+            ),
+            iterations=np.concatenate([s.iterations for s in solutions]),
+            converged=np.concatenate([s.converged for s in solutions]),
+            kl=np.concatenate([s.kl for s in solutions]),
+            solve_time_s=sum(s.solve_time_s for s in solutions),
+            eval_time_s=sum(s.eval_time_s for s in solutions),
+        )
+
+    def to_frame(self):
+        """One row per game: owner, action, iterations, converged, kl (pandas DataFrame)."""
+        import pandas as pd
+
+        return pd.DataFrame(
+            {
+                "owner": self.owner,
+                "action": self.actions,
+                "iterations": self.iterations,
+                "converged": self.converged,
+                "kl": self.kl,
+            }
+        )
+
+
+def _one_hot(profile: np.ndarray, payoffs: GamePayoffs) -> np.ndarray:
+    b, k, a = payoffs.shape
+    q = np.zeros((b, k, a))
+    np.put_along_axis(q, profile[:, :, None], 1.0, axis=2)
+    return q * payoffs.mask[:, :, None]
+
+
+def _pure_solution(name, payoffs, profile, iterations, converged, t0, marginals=None):
+    b = payoffs.shape[0]
+    return GameSolution(
+        solver=name,
+        owner=payoffs.owner,
+        actions=profile[:, 0].copy(),
+        profile=profile,
+        marginals=_one_hot(profile, payoffs) if marginals is None else marginals,
+        iterations=iterations,
+        converged=converged,
+        kl=np.zeros(b),
+        solve_time_s=time.perf_counter() - t0,
+    )
+
+
+@runtime_checkable
+class Solver(Protocol):
+    """What every solver offers (the object :func:`make_solver` returns).
+
+    Attributes
+    ----------
+    name : str
+        Registry name (one of :data:`SOLVERS`).
+    virtual_mean : bool
+        Whether stage solving builds the games with virtual means (eq. 3).
+    buckets : int
+        Default number of size buckets of stage solving (0 = automatic).
+    """
+
+    name: str
+    virtual_mean: bool
+    buckets: int
+
+    def evaluate(self, batch: LocalGameBatch, potentials: Potentials) -> GamePayoffs:
+        """Weighted payoff tables of ``batch``."""
+        ...
+
+    def solve(
+        self,
+        batch: LocalGameBatch,
+        potentials: Potentials,
+        rng: int | np.random.Generator | None = None,
+    ) -> GameSolution:
+        """Solve every game of ``batch``."""
+        ...
+
+    def solve_payoffs(
+        self, payoffs: GamePayoffs, rng: int | np.random.Generator | None = None
+    ) -> GameSolution:
+        """Solve every game of already evaluated tables."""
+        ...
+
+
+@dataclass(frozen=True)
+class _Base:
+    alpha_a: float = 1.0
+    alpha_b: float = 0.001
+    dtype: str = "float64"
+    buckets: int = 0
+
+    name = "base"
+    virtual_mean = True
+
+    def evaluate(self, batch: LocalGameBatch, potentials: Potentials) -> GamePayoffs:
+        """The weighted payoff tables of ``batch`` under this solver's α_a, α_b and dtype."""
+        return evaluate_payoffs(batch, potentials, self.alpha_a, self.alpha_b, dtype=self.dtype)
+
+    def solve(
+        self,
+        batch: LocalGameBatch,
+        potentials: Potentials,
+        rng: int | np.random.Generator | None = None,
+    ) -> GameSolution:
+        """Solve every game of ``batch``; see the class docstring for the method."""
+        t0 = time.perf_counter()
+        payoffs = self.evaluate(batch, potentials)
+        t_eval = time.perf_counter() - t0
+        sol = self.solve_payoffs(payoffs, rng)
+        return GameSolution(**{**sol.__dict__, "eval_time_s": t_eval})
+
+    def solve_payoffs(
+        self, payoffs: GamePayoffs, rng: int | np.random.Generator | None = None
+    ) -> GameSolution:  # pragma: no cover - every solver overrides it
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class MeanFieldSolver(_Base):
+    """Mean-field solver of Algorithm 1 (payoff-maximising sign, see
+    :mod:`swarmgames.game.meanfield`).
+
+    Parameters
+    ----------
+    alpha_a, alpha_b : float
+        Weights of eq. 1 (paper: 1, 0.001).
+    dtype : {"float64", "float32"}
+        Precision of the payoff tables and marginals.
+    buckets : int
+        Default size-bucket count of :func:`~swarmgames.game.stage.solve_stage` (0 = automatic).
+    beta : float
+        Inverse temperature, > 0.
+    delta : float
+        KL stopping threshold, > 0.
+    max_iter : int
+        Maximum sweeps, >= 1.
+    action_choice : {"argmax", "sample"}
+        Owner's action: argmax of its marginal (ties to the lowest index) or a draw from it.
+    virtual_mean : bool
+        Whether ``solve_stage`` builds the games with virtual means (eq. 3).
+    centralised : bool
+        Whether ``solve_stage`` solves the swarm as one game (centralised baseline).
+    summation : {"blas", "sequential"}
+        See :func:`~swarmgames.game.meanfield.mean_field`.
+    """
+
+    beta: float = 50.0
+    delta: float = 1e-6
+    max_iter: int = 200
+    action_choice: Literal["argmax", "sample"] = "argmax"
+    virtual_mean: bool = True  # type: ignore[misc]
+    centralised: bool = False
+    summation: Literal["blas", "sequential"] = "blas"
+
+    def __post_init__(self) -> None:
+        check_parameters(self.beta, self.delta, self.max_iter)
+        if self.action_choice not in ("argmax", "sample"):
+            raise ValueError(
+                f"action_choice must be 'argmax' or 'sample' (got {self.action_choice!r})"
+            )
+
+    @property
+    def name(self) -> str:  # type: ignore[override]
+        """Registry name of this configuration."""
+        if self.centralised:
+            return "centralised"
+        return "mean_field" if self.virtual_mean else "no_virtual_mean"
+
+    def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
+        """Mean-field marginals of every game, then each owner's action."""
+        t0 = time.perf_counter()
+        res = mean_field(payoffs, self.beta, self.delta, self.max_iter, summation=self.summation)
+        q = res.marginals
+        masked = np.where(payoffs.action_mask, q, -1.0)
+        profile = np.where(payoffs.mask, masked.argmax(axis=2), 0)
+        actions = profile[:, 0].copy()
+        if self.action_choice == "sample":
+            actions = sample_actions(q[:, 0], payoffs.action_mask[:, 0], actions, rng)
+        return GameSolution(
+            solver=self.name,
+            owner=payoffs.owner,
+            actions=actions,
+            profile=profile,
+            marginals=q,
+            iterations=res.iterations,
+            converged=res.converged,
+            kl=res.kl,
+            solve_time_s=time.perf_counter() - t0,
+        )
+
+
+@dataclass(frozen=True)
+class ExactSolver(_Base):
+    """Enumerates every joint profile of each local game and plays the M-maximising one."""
+
+    max_profiles: int = 1_000_000
+    name = "exact"
+
+    def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
+        """The M-maximising profile of every game."""
+        t0 = time.perf_counter()
+        profile = exact_profiles(payoffs, self.max_profiles)
+        b = profile.shape[0]
+        return _pure_solution(
+            self.name, payoffs, profile, np.ones(b, dtype=np.int64), np.ones(b, bool), t0
+        )
+
+
+@dataclass(frozen=True)
+class BestResponseSolver(_Base):
+    """Best-response dynamics (stops at a pure NE of each local game)."""
+
+    max_iter: int = 200
+    name = "best_response"
+
+    def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
+        """Best-response profile of every game."""
+        t0 = time.perf_counter()
+        profile, it, conv = best_response(payoffs, self.max_iter)
+        return _pure_solution(self.name, payoffs, profile, it, conv, t0)
+
+
+@dataclass(frozen=True)
+class RandomSolver(_Base):
+    """A uniformly random valid action for every variable (lower baseline)."""
+
+    name = "random"
+
+    def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
+        """Random profile of every game."""
+        t0 = time.perf_counter()
+        profile = random_profiles(payoffs, normalise_rng(rng))
+        amask = payoffs.action_mask
+        q = amask / np.maximum(amask.sum(axis=2, keepdims=True), 1)
+        b = profile.shape[0]
+        return _pure_solution(
+            self.name, payoffs, profile, np.zeros(b, np.int64), np.ones(b, bool), t0, q
+        )
+
+
+def make_solver(config) -> Solver:
+    """The solver a :class:`~swarmgames.config.GameConfig` names, configured from it.
+
+    Parameters
+    ----------
+    config : GameConfig
+        Uses ``solver``, ``alpha_a``, ``alpha_b``, ``beta``, ``delta``, ``max_iter``,
+        ``action_choice``, ``virtual_mean``, ``precision``, ``exact_max_profiles`` and
+        ``buckets``.
+
+    Returns
+    -------
+    MeanFieldSolver, ExactSolver, BestResponseSolver or RandomSolver
+    """
+    name = config.solver
+    common = {
+        "alpha_a": config.alpha_a,
+        "alpha_b": config.alpha_b,
+        "dtype": getattr(config, "precision", "float64"),
+        "buckets": getattr(config, "buckets", 0),
+    }
+    if name in ("mean_field", "no_virtual_mean", "centralised"):
+        return MeanFieldSolver(
+            **common,
+            beta=config.beta,
+            delta=config.delta,
+            max_iter=config.max_iter,
+            action_choice=config.action_choice,
+            virtual_mean=bool(config.virtual_mean) and name == "mean_field",
+            centralised=name == "centralised",
+        )
+    if name == "exact":
+        return ExactSolver(**common, max_profiles=getattr(config, "exact_max_profiles", 1_000_000))
+    if name == "best_response":
+        return BestResponseSolver(**common, max_iter=config.max_iter)
+    if name == "random":
+        return RandomSolver(**common)
+    raise ValueError(f"solver must be one of {', '.join(SOLVERS)} (got {name!r})")
