@@ -173,8 +173,15 @@ class GameConfig(_Section):
     alpha_b: float = Field(
         0.001, ge=0, description="Weight of the pairwise potentials (paper: 0.001)."
     )
-    solver: Literal["mean_field", "best_response", "exact", "centralised", "random"] = Field(
-        "mean_field", description="Local-game solver."
+    solver: Literal[
+        "mean_field", "no_virtual_mean", "best_response", "exact", "centralised", "random"
+    ] = Field(
+        "mean_field",
+        description=(
+            "Local-game solver: mean_field (Algorithm 1), no_virtual_mean (the same without "
+            "eq. 3), best_response, exact (enumeration), centralised (one swarm-wide "
+            "mean-field game), random."
+        ),
     )
     virtual_mean: bool = Field(
         True, description="Replace neighbours with outside neighbours by virtual means (eq. 3)."
@@ -186,6 +193,16 @@ class GameConfig(_Section):
     max_iter: int = Field(200, ge=1, description="Maximum mean-field sweeps.")
     action_choice: Literal["argmax", "sample"] = Field(
         "argmax", description="How a robot picks its action from its own marginal."
+    )
+    precision: Literal["float64", "float32"] = Field(
+        "float64",
+        description="Floating-point precision of the payoff tables and marginals (float32 "
+        "halves the memory of the pairwise table, B K^2 A^2 values).",
+    )
+    exact_max_profiles: int = Field(
+        1_000_000,
+        ge=1,
+        description="Largest number of joint profiles the exact solver enumerates per game.",
     )
 
 

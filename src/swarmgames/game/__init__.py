@@ -1,1 +1,95 @@
-"""game layer."""
+"""Game layer: stage graphical games, local game decomposition, virtual mean neighbours, the
+mean-field solver of Algorithm 1, baselines and equilibrium measurement.
+
+See ``docs/game.md`` for the guide and the contract with scenarios.
+"""
+
+from swarmgames.game.actions import ActionModel, DisplacementActions, action_mask_of
+from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
+from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.equilibrium import (
+    deviation_gains,
+    enumerate_payoffs,
+    global_regret,
+    local_regret,
+    profile_payoff,
+    pure_equilibria,
+)
+from swarmgames.game.local import (
+    LocalView,
+    LocalViews,
+    Messages,
+    broadcast,
+    build_local_game,
+    build_local_games,
+    centralised_game,
+    gather_views,
+    local_games,
+    receive,
+)
+from swarmgames.game.meanfield import MeanFieldResult, mean_field
+from swarmgames.game.potentials import (
+    FunctionPotentials,
+    GamePayoffs,
+    Potentials,
+    TablePotentials,
+    evaluate_payoffs,
+)
+from swarmgames.game.solvers import (
+    SOLVERS,
+    BestResponseSolver,
+    ExactSolver,
+    GameSolution,
+    MeanFieldSolver,
+    RandomSolver,
+    StageSolution,
+    make_solver,
+    normalise_rng,
+    solve_stage,
+)
+from swarmgames.game.virtual import neighbourhood_means, reaches_outside
+
+__all__ = [
+    "SOLVERS",
+    "ActionModel",
+    "BestResponseSolver",
+    "DisplacementActions",
+    "ExactSolver",
+    "FunctionPotentials",
+    "GamePayoffs",
+    "GameSolution",
+    "LocalGameBatch",
+    "LocalView",
+    "LocalViews",
+    "MeanFieldResult",
+    "MeanFieldSolver",
+    "Messages",
+    "Potentials",
+    "RandomSolver",
+    "StageSolution",
+    "TablePotentials",
+    "action_mask_of",
+    "best_response",
+    "broadcast",
+    "build_local_game",
+    "build_local_games",
+    "centralised_game",
+    "deviation_gains",
+    "enumerate_payoffs",
+    "evaluate_payoffs",
+    "exact_profiles",
+    "gather_views",
+    "global_regret",
+    "local_games",
+    "local_regret",
+    "make_solver",
+    "mean_field",
+    "neighbourhood_means",
+    "normalise_rng",
+    "profile_payoff",
+    "pure_equilibria",
+    "random_profiles",
+    "reaches_outside",
+    "receive",
+    "solve_stage",
+]

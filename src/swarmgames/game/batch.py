@@ -1,0 +1,167 @@
+"""Padded batch of local games: one immutable container for the B local games of a stage.
+
+Every field is an array whose leading axis is the game (one per deciding robot), in the
+spirit of jraph's ``GraphsTuple``: the local game of robot ``owner[b]`` has ``mask[b].sum()``
+variables, variable 0 being the owner itself, and each variable ``k`` has the actions
+``action_mask[b, k]``. Padding (``members == -1``, ``mask`` false, ``action_mask`` false) never
+carries probability or payoff.
+
+References
+----------
+.. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
+   Communication Networks", ICRA 2022 workshop, section II.C (local game decomposition).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["LocalGameBatch"]
+
+
+def _frozen(a, dtype=None) -> np.ndarray:
+    out = np.array(a, dtype=dtype, copy=True)
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class LocalGameBatch:
+    """B local games as padded arrays (K = most variables, A = most actions, D = state size).
+
+    Parameters
+    ----------
+    owner : ndarray of int32, shape (B,)
+        Robot whose local game each row is; ``-1`` for a game with no single owner (the
+        centralised game).
+    members : ndarray of int32, shape (B, K)
+        Global robot ids of the local variables, ``-1`` = padding. Column 0 is the owner.
+    mask : ndarray of bool, shape (B, K)
+        Valid variables.
+    states : ndarray of float, shape (B, K, D)
+        State of each variable as the owner sees it: the member's reported state, or its
+        virtual mean S̄_j (paper eq. 3) where ``is_virtual``. Zero at padding.
+    is_virtual : ndarray of bool, shape (B, K)
+        Variables replaced by a virtual mean neighbour.
+    next_states : ndarray of float, shape (B, K, A, D)
+        State of each variable after each action (from the action model).
+    action_mask : ndarray of bool, shape (B, K, A)
+        Valid actions; false everywhere on padded variables.
+    pair_mask : ndarray of bool, shape (B, K, K), optional
+        Pairs ``(k, l)`` whose pairwise potential counts. ``None`` (default): every pair of
+        distinct valid variables, as in eq. 1 where the sum runs over all of N_i. The
+        centralised game uses it to keep only pairs within h hops.
+
+    Notes
+    -----
+    All arrays are copied and made read-only. Use :meth:`select` to take a subset of games
+    and :meth:`trim` to drop padding columns no game uses.
+    """
+
+    owner: np.ndarray
+    members: np.ndarray
+    mask: np.ndarray
+    states: np.ndarray
+    is_virtual: np.ndarray
+    next_states: np.ndarray
+    action_mask: np.ndarray
+    pair_mask: np.ndarray | None = field(default=None)
+
+    def __post_init__(self) -> None:
+        members = np.asarray(self.members)
+        if members.ndim != 2:
+            raise ValueError(f"members must have shape (B, K) (got {members.shape})")
+        b, k = members.shape
+        states = np.asarray(self.states, dtype=float)
+        if states.ndim != 3 or states.shape[:2] != (b, k):
+            raise ValueError(f"states must have shape ({b}, {k}, D) (got {states.shape})")
+        d = states.shape[2]
+        nxt = np.asarray(self.next_states, dtype=float)
+        if nxt.ndim != 4 or nxt.shape[:2] != (b, k) or nxt.shape[3] != d:
+            raise ValueError(f"next_states must have shape ({b}, {k}, A, {d}) (got {nxt.shape})")
+        a = nxt.shape[2]
+        expected = {
+            "owner": (b,),
+            "mask": (b, k),
+            "is_virtual": (b, k),
+            "action_mask": (b, k, a),
+        }
+        for name, shape in expected.items():
+            got = np.shape(getattr(self, name))
+            if got != shape:
+                raise ValueError(f"{name} must have shape {shape} (got {got})")
+        object.__setattr__(self, "owner", _frozen(self.owner, np.int32))
+        object.__setattr__(self, "members", _frozen(members, np.int32))
+        object.__setattr__(self, "mask", _frozen(self.mask, bool))
+        object.__setattr__(self, "states", _frozen(states))
+        object.__setattr__(self, "is_virtual", _frozen(self.is_virtual, bool))
+        object.__setattr__(self, "next_states", _frozen(nxt))
+        amask = np.asarray(self.action_mask, dtype=bool) & self.mask[:, :, None]
+        object.__setattr__(self, "action_mask", _frozen(amask))
+        if self.pair_mask is not None:
+            if np.shape(self.pair_mask) != (b, k, k):
+                raise ValueError(
+                    f"pair_mask must have shape {(b, k, k)} (got {np.shape(self.pair_mask)})"
+                )
+            object.__setattr__(self, "pair_mask", _frozen(self.pair_mask, bool))
+
+    @property
+    def n_games(self) -> int:
+        """B, the number of local games."""
+        return int(self.members.shape[0])
+
+    @property
+    def n_vars(self) -> int:
+        """K, the padded number of variables per game."""
+        return int(self.members.shape[1])
+
+    @property
+    def n_actions(self) -> int:
+        """A, the padded number of actions per variable."""
+        return int(self.next_states.shape[2])
+
+    @property
+    def state_dim(self) -> int:
+        """D, the size of a state vector."""
+        return int(self.states.shape[2])
+
+    def valid_pairs(self) -> np.ndarray:
+        """Boolean ``(B, K, K)``: pairs of distinct valid variables whose pairwise term counts."""
+        k = self.n_vars
+        pairs = self.mask[:, :, None] & self.mask[:, None, :] & ~np.eye(k, dtype=bool)
+        if self.pair_mask is not None:
+            pairs &= self.pair_mask
+        return pairs
+
+    def select(self, games) -> LocalGameBatch:
+        """The sub-batch of the games ``games`` (indices or a boolean mask over B)."""
+        idx = np.arange(self.n_games)[games]
+        return LocalGameBatch(
+            owner=self.owner[idx],
+            members=self.members[idx],
+            mask=self.mask[idx],
+            states=self.states[idx],
+            is_virtual=self.is_virtual[idx],
+            next_states=self.next_states[idx],
+            action_mask=self.action_mask[idx],
+            pair_mask=None if self.pair_mask is None else self.pair_mask[idx],
+        )
+
+    def trim(self) -> LocalGameBatch:
+        """The same games with the trailing padding columns that no game uses dropped."""
+        used_k = np.flatnonzero(self.mask.any(axis=0))
+        used_a = np.flatnonzero(self.action_mask.any(axis=(0, 1)))
+        k = int(used_k[-1]) + 1 if used_k.size else 1
+        a = int(used_a[-1]) + 1 if used_a.size else 1
+        return LocalGameBatch(
+            owner=self.owner,
+            members=self.members[:, :k],
+            mask=self.mask[:, :k],
+            states=self.states[:, :k],
+            is_virtual=self.is_virtual[:, :k],
+            next_states=self.next_states[:, :k, :a],
+            action_mask=self.action_mask[:, :k, :a],
+            pair_mask=None if self.pair_mask is None else self.pair_mask[:, :k, :k],
+        )

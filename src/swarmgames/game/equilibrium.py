@@ -1,0 +1,212 @@
+"""Equilibrium measurement: payoffs of pure profiles, regret, exact pure Nash equilibria.
+
+A local game is a potential game: every player k of robot i's local game is scored by the
+same M_i (eq. 1), and the terms of M_i that do not involve x_k do not change when k deviates.
+So the gain of player k deviating alone from a pure profile x to action a is
+
+    g_k(a; x) = U[k, a] − U[k, x_k] + Σ_{l≠k} (W[k, a, l, x_l] − W[k, x_k, l, x_l])
+
+(U, W the weighted tables of :mod:`swarmgames.game.potentials`), and the **regret** of x is the
+largest such gain, max_k max_a g_k(a; x) >= 0; x is a pure Nash equilibrium (NE) iff its regret
+is 0.
+
+The **global (stage-game) regret** of robot i at a realised joint action is its gain by
+deviating alone in its payoff over its *true* neighbourhood with actual states, no virtual
+means: the deviation gain of variable 0 in the game built by
+``local_games(true_snapshot, h, states, model, virtual_mean=False)``, with every other
+variable held at its robot's realised action.
+
+References
+----------
+.. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
+   Communication Networks", ICRA 2022 workshop, section II.C (NE of the stage game).
+.. [2] D. Monderer and L. S. Shapley, "Potential Games", Games and Economic Behavior 14, 1996.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from swarmgames.game.potentials import GamePayoffs
+
+__all__ = [
+    "deviation_gains",
+    "enumerate_payoffs",
+    "global_regret",
+    "local_regret",
+    "profile_payoff",
+    "pure_equilibria",
+]
+
+
+def _check_profile(payoffs: GamePayoffs, profile) -> np.ndarray:
+    b, k, a = payoffs.shape
+    x = np.asarray(profile)
+    if x.shape != (b, k):
+        raise ValueError(f"profile must have shape {(b, k)} (got {x.shape})")
+    x = np.where(payoffs.mask, x, 0).astype(np.int64)
+    if np.any((x < 0) | (x >= a)):
+        raise ValueError(f"profile actions must be in [0, {a}) on valid variables")
+    ok = np.take_along_axis(payoffs.action_mask, x[:, :, None], axis=2)[:, :, 0]
+    bad = payoffs.mask & ~ok
+    if bad.any():
+        gb, gk = (int(v) for v in np.argwhere(bad)[0])
+        raise ValueError(
+            f"profile action {int(x[gb, gk])} is not valid for variable {gk} "
+            f"(robot {int(payoffs.members[gb, gk])}) of game {gb}"
+        )
+    return x
+
+
+def _fields(payoffs: GamePayoffs, x: np.ndarray) -> np.ndarray:
+    """E[M | X_k = a] with every other variable at x: (B, K, A), up to terms free of x_k."""
+    field = payoffs.unary.astype(np.float64)
+    if payoffs.pair is not None:
+        b, k, a = payoffs.shape
+        idx = np.broadcast_to(x[:, None, None, :, None], (b, k, a, k, 1))
+        field = field + np.take_along_axis(payoffs.pair, idx, axis=4)[..., 0].sum(axis=3)
+    return field
+
+
+def deviation_gains(payoffs: GamePayoffs, profile) -> np.ndarray:
+    """Largest gain of each player by deviating alone from the pure ``profile``.
+
+    Parameters
+    ----------
+    payoffs : GamePayoffs
+    profile : array_like of int, shape (B, K)
+        One action per variable (ignored at padding; must be valid elsewhere).
+
+    Returns
+    -------
+    ndarray, shape (B, K)
+        ``max_a g_k(a; x) >= 0``; 0 at padding.
+    """
+    x = _check_profile(payoffs, profile)
+    field = _fields(payoffs, x)
+    best = np.where(payoffs.action_mask, field, -np.inf).max(axis=2)
+    cur = np.take_along_axis(field, x[:, :, None], axis=2)[:, :, 0]
+    return np.where(payoffs.mask, np.maximum(best - cur, 0.0), 0.0)
+
+
+def local_regret(payoffs: GamePayoffs, profile) -> np.ndarray:
+    """Regret of ``profile`` in each local game: the largest gain of any player, (B,)."""
+    return deviation_gains(payoffs, profile).max(axis=1)
+
+
+def global_regret(true_payoffs: GamePayoffs, joint_actions) -> np.ndarray:
+    """Stage-game regret of each owner at the realised joint action.
+
+    Parameters
+    ----------
+    true_payoffs : GamePayoffs
+        Payoffs of the games built with actual states and true neighbourhoods
+        (``virtual_mean=False``); column 0 of each game is its owner.
+    joint_actions : array_like of int, shape (N,)
+        The action every robot took.
+
+    Returns
+    -------
+    ndarray, shape (B,)
+        Gain of each owner by deviating alone, all other robots' actions fixed.
+    """
+    joint = np.asarray(joint_actions)
+    if joint.ndim != 1:
+        raise ValueError(f"joint_actions must have shape (N,) (got {joint.shape})")
+    members = true_payoffs.members
+    if members.size and members.max() >= joint.size:
+        raise ValueError(
+            f"joint_actions has {joint.size} entries but the games use robot {members.max()}"
+        )
+    if np.any(true_payoffs.members[:, 0] != true_payoffs.owner):
+        raise ValueError("global_regret needs games whose variable 0 is the owner")
+    profile = np.where(true_payoffs.mask, joint[np.maximum(members, 0)], 0)
+    return deviation_gains(true_payoffs, profile)[:, 0]
+
+
+def profile_payoff(payoffs: GamePayoffs, profile) -> np.ndarray:
+    """M(x) of eq. 1 at the pure ``profile`` in each game, (B,)."""
+    x = _check_profile(payoffs, profile)
+    total = np.take_along_axis(payoffs.unary, x[:, :, None], axis=2)[:, :, 0].sum(axis=1)
+    if payoffs.pair is not None:
+        b, k, a = payoffs.shape
+        idx = np.broadcast_to(x[:, None, None, :, None], (b, k, a, k, 1))
+        at_l = np.take_along_axis(payoffs.pair, idx, axis=4)[..., 0]  # (B, K, A, K)
+        at_kl = np.take_along_axis(at_l, x[:, :, None, None], axis=2)[:, :, 0]  # (B, K, K)
+        total = total + 0.5 * at_kl.sum(axis=(1, 2))
+    return total
+
+
+def enumerate_payoffs(
+    payoffs: GamePayoffs, game: int, max_profiles: int = 1_000_000
+) -> tuple[np.ndarray, list[np.ndarray]]:
+    """M over every pure profile of one game, by enumeration.
+
+    Parameters
+    ----------
+    payoffs : GamePayoffs
+    game : int
+        Index of the game in the batch.
+    max_profiles : int
+        Refuse games with more joint profiles than this.
+
+    Returns
+    -------
+    grid : ndarray, shape (n_0, ..., n_{K_b - 1})
+        M at every combination of valid actions of the game's K_b valid variables.
+    actions : list of ndarray
+        ``actions[k]``: the valid action indices of valid variable k (the grid's axis k).
+    """
+    valid_vars = np.flatnonzero(payoffs.mask[game])
+    actions = [np.flatnonzero(payoffs.action_mask[game, k]) for k in valid_vars]
+    sizes = [a.size for a in actions]
+    n_prof = int(np.prod(sizes, dtype=np.float64))
+    if n_prof > max_profiles:
+        raise ValueError(
+            f"game {game} (robot {int(payoffs.owner[game])}) has {n_prof} joint profiles, "
+            f"more than max_profiles={max_profiles}"
+        )
+    nv = len(valid_vars)
+    grid = np.zeros(sizes)
+    for i, (k, acts) in enumerate(zip(valid_vars, actions, strict=True)):
+        shape = [1] * nv
+        shape[i] = acts.size
+        grid = grid + payoffs.unary[game, k, acts].reshape(shape)
+    if payoffs.pair is not None:
+        for i, j in itertools.combinations(range(nv), 2):
+            vk, vl = valid_vars[i], valid_vars[j]
+            block = payoffs.pair[game, vk][np.ix_(actions[i], [vl], actions[j])][:, 0, :]
+            shape = [1] * nv
+            shape[i], shape[j] = sizes[i], sizes[j]
+            grid = grid + block.reshape(shape)
+    return grid, actions
+
+
+def pure_equilibria(
+    payoffs: GamePayoffs, game: int, *, tol: float = 1e-12, max_profiles: int = 1_000_000
+) -> np.ndarray:
+    """Every pure Nash equilibrium of one local game, by enumeration.
+
+    A profile is a NE iff no single variable can raise M by more than ``tol`` (relative to the
+    largest |M|) by changing its own action.
+
+    Returns
+    -------
+    ndarray of int, shape (n_eq, K)
+        Action indices in the batch's layout (0 at padding columns). Never empty: the maximum
+        of M is always a NE of a potential game.
+    """
+    grid, actions = enumerate_payoffs(payoffs, game, max_profiles)
+    k = payoffs.shape[1]
+    valid_vars = np.flatnonzero(payoffs.mask[game])
+    slack = tol * max(1.0, float(np.abs(grid).max(initial=0.0)))
+    is_ne = np.ones(grid.shape, dtype=bool)
+    for axis in range(grid.ndim):
+        is_ne &= grid >= grid.max(axis=axis, keepdims=True) - slack
+    idx = np.argwhere(is_ne)
+    out = np.zeros((idx.shape[0], k), dtype=np.int64)
+    for i, var in enumerate(valid_vars):
+        out[:, var] = actions[i][idx[:, i]]
+    return out

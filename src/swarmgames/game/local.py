@@ -1,0 +1,387 @@
+"""Local game decomposition: robot i's game built only from what robot i has received.
+
+The decomposition has three stages, and each one can only see what the previous one hands it:
+
+1. :func:`broadcast` — what every robot j sends: its own state S_j, its neighbourhood N_j read
+   from its own routing table (N_j(h) = {k : Hops(j, k) <= h}, j included) and the mean S̄_j
+   of the states its neighbours reported (eq. 3). This is the only step that sees the whole
+   swarm, and only to simulate every robot's transmission (:class:`Messages`).
+2. :func:`receive` / :func:`gather_views` — the "radio": robot i's inbox, the messages of the
+   members of its own N_i and nothing else (:class:`LocalView`, or :class:`LocalViews` padded
+   for a whole stage).
+3. :func:`build_local_game` / :func:`build_local_games` — the local game, a
+   :class:`~swarmgames.game.batch.LocalGameBatch`. The builders take a view, not the swarm:
+   they cannot read global state because they are never given it.
+
+:func:`local_games` chains the three for a whole stage; :func:`centralised_game` builds the
+single swarm-wide game of the centralised baseline.
+
+References
+----------
+.. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
+   Communication Networks", ICRA 2022 workshop, section II.A (neighbourhoods from routing
+   tables), II.C and Algorithm 1 lines 1-3 (local games, virtual means).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from swarmgames.game.actions import ActionModel, action_mask_of
+from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.virtual import neighbourhood_means, reaches_outside
+from swarmgames.network.topology import TopologySnapshot
+
+__all__ = [
+    "LocalView",
+    "LocalViews",
+    "Messages",
+    "broadcast",
+    "build_local_game",
+    "build_local_games",
+    "centralised_game",
+    "gather_views",
+    "local_games",
+    "receive",
+]
+
+
+def _readonly(a, dtype=None) -> np.ndarray:
+    out = np.array(a, dtype=dtype, copy=True)
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Messages:
+    """What every robot broadcasts in one stage.
+
+    Parameters
+    ----------
+    state : ndarray, shape (N, D)
+        Reported state S_j of every robot.
+    indptr, indices : ndarray of int
+        CSR rows: ``indices[indptr[j]:indptr[j + 1]]`` is N_j, sorted, j included.
+    mean_state : ndarray, shape (N, D)
+        S̄_j of eq. 3, computed by j from its neighbours' reports.
+    """
+
+    state: np.ndarray
+    indptr: np.ndarray
+    indices: np.ndarray
+    mean_state: np.ndarray
+
+    @property
+    def n_robots(self) -> int:
+        """N, the number of robots that broadcast."""
+        return int(self.state.shape[0])
+
+    def neighbourhood(self, j: int) -> np.ndarray:
+        """N_j as robot j reported it."""
+        return self.indices[self.indptr[j] : self.indptr[j + 1]]
+
+
+def _validate_states(states, n: int) -> np.ndarray:
+    states = np.asarray(states, dtype=float)
+    if states.ndim != 2 or states.shape[0] != n:
+        raise ValueError(f"states must have shape ({n}, D) (got {states.shape})")
+    if not np.all(np.isfinite(states)):
+        bad = int(np.argwhere(~np.isfinite(states))[0, 0])
+        raise ValueError(f"states must be finite (robot {bad} is not)")
+    return states
+
+
+def broadcast(snapshot: TopologySnapshot, h: int, states: np.ndarray) -> Messages:
+    """Every robot's message of one stage: its state, its N_j(h) and its S̄_j (eq. 3).
+
+    Parameters
+    ----------
+    snapshot : TopologySnapshot
+        Every robot's routing table; robot j reads N_j(h) from its own entries only.
+    h : int
+        Neighbourhood radius in hops, >= 1 (paper: 2).
+    states : ndarray, shape (N, D)
+        Each robot's own state (positions, and velocities where the model needs them).
+
+    Returns
+    -------
+    Messages
+    """
+    if not isinstance(h, (int, np.integer)) or h < 1:
+        raise ValueError(f"h must be an integer >= 1 (got {h})")
+    states = _validate_states(states, snapshot.n_nodes)
+    nbh = snapshot.neighbourhood_matrix(int(h))
+    nbh.sort_indices()
+    return Messages(
+        state=_readonly(states),
+        indptr=_readonly(nbh.indptr, np.int64),
+        indices=_readonly(nbh.indices, np.int32),
+        mean_state=_readonly(neighbourhood_means(nbh, states)),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class LocalView:
+    """Robot i's inbox: the messages of the members of its own neighbourhood.
+
+    Parameters
+    ----------
+    owner : int
+        Robot i.
+    members : ndarray of int32, shape (K,)
+        N_i, owner first, then the others in increasing id.
+    states : ndarray, shape (K, D)
+        Their reported states.
+    mean_states : ndarray, shape (K, D)
+        Their reported S̄_j (eq. 3).
+    neighbourhoods : tuple of ndarray
+        Their reported N_j.
+    """
+
+    owner: int
+    members: np.ndarray
+    states: np.ndarray
+    mean_states: np.ndarray
+    neighbourhoods: tuple[np.ndarray, ...]
+
+
+def _owner_first(row: np.ndarray, owner: int) -> np.ndarray:
+    return np.concatenate([[owner], row[row != owner]]).astype(np.int32)
+
+
+def receive(messages: Messages, owner: int) -> LocalView:
+    """Robot ``owner``'s inbox: the messages of N_owner, as its own routing table gives it."""
+    if not 0 <= owner < messages.n_robots:
+        raise ValueError(f"owner must be in [0, {messages.n_robots}) (got {owner})")
+    members = _owner_first(messages.neighbourhood(owner), owner)
+    return LocalView(
+        owner=int(owner),
+        members=_readonly(members),
+        states=_readonly(messages.state[members]),
+        mean_states=_readonly(messages.mean_state[members]),
+        neighbourhoods=tuple(_readonly(messages.neighbourhood(int(j))) for j in members),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class LocalViews:
+    """The inboxes of B robots as padded arrays (the batched :class:`LocalView`).
+
+    Parameters
+    ----------
+    owner : ndarray of int32, shape (B,)
+    members : ndarray of int32, shape (B, K)
+        N_i, owner first, ``-1`` padded.
+    mask : ndarray of bool, shape (B, K)
+    states, mean_states : ndarray, shape (B, K, D)
+        Reported S_j and S̄_j; 0 at padding.
+    neighbourhoods : ndarray of int32, shape (B, K, L)
+        Reported N_j, ``-1`` padded (L = largest |N_j|).
+    """
+
+    owner: np.ndarray
+    members: np.ndarray
+    mask: np.ndarray
+    states: np.ndarray
+    mean_states: np.ndarray
+    neighbourhoods: np.ndarray
+
+
+def _pad_rows(indptr: np.ndarray, indices: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """CSR rows ``rows`` (any shape) as a ``rows.shape + (L,)`` array, -1 padded; -1 rows are
+    empty."""
+    flat = rows.ravel()
+    ok = flat >= 0
+    safe = np.where(ok, flat, 0)
+    start = indptr[safe]
+    count = np.where(ok, indptr[safe + 1] - start, 0)
+    width = int(count.max(initial=0))
+    out = np.full((flat.size, max(width, 1)), -1, dtype=np.int32)
+    row_id = np.repeat(np.arange(flat.size), count)
+    col = np.arange(row_id.size) - np.repeat(np.cumsum(count) - count, count)
+    out[row_id, col] = indices[np.repeat(start, count) + col]
+    return out.reshape((*rows.shape, out.shape[1]))
+
+
+def gather_views(messages: Messages, owners=None) -> LocalViews:
+    """The inboxes of ``owners`` (default: every robot), padded.
+
+    Each inbox holds only the messages of the owner's own N_i; the local-game builder receives
+    nothing else.
+    """
+    n = messages.n_robots
+    owners = np.arange(n) if owners is None else np.asarray(owners, dtype=np.int64).reshape(-1)
+    if owners.size and (owners.min() < 0 or owners.max() >= n):
+        raise ValueError(f"owners must be in [0, {n}) (got {owners.min()}..{owners.max()})")
+    rows = _pad_rows(messages.indptr, messages.indices, owners)  # (B, K), sorted, owner inside
+    mask = rows >= 0
+    # Owner first, the rest in increasing id (stable sort on "is not the owner").
+    key = (~mask).astype(np.int8) + (rows != owners[:, None])
+    order = np.argsort(key, axis=1, kind="stable")
+    members = np.take_along_axis(rows, order, axis=1)
+    mask = members >= 0
+    safe = np.where(mask, members, 0)
+    zero = ~mask[:, :, None]
+    return LocalViews(
+        owner=_readonly(owners, np.int32),
+        members=_readonly(members, np.int32),
+        mask=_readonly(mask),
+        states=_readonly(np.where(zero, 0.0, messages.state[safe])),
+        mean_states=_readonly(np.where(zero, 0.0, messages.mean_state[safe])),
+        neighbourhoods=_readonly(_pad_rows(messages.indptr, messages.indices, members)),
+    )
+
+
+def _game_from_states(
+    owner, members, mask, states, is_virtual, action_model: ActionModel, pair_mask=None
+) -> LocalGameBatch:
+    n_actions = int(action_model.n_actions)
+    if n_actions < 1:
+        raise ValueError(f"action model n_actions must be >= 1 (got {n_actions})")
+    next_states = np.asarray(action_model.apply(states), dtype=float)
+    expected = (*states.shape[:2], n_actions, states.shape[2])
+    if next_states.shape != expected:
+        raise ValueError(
+            f"action model apply() must return shape {expected} (got {next_states.shape})"
+        )
+    return LocalGameBatch(
+        owner=owner,
+        members=members,
+        mask=mask,
+        states=states,
+        is_virtual=is_virtual,
+        next_states=next_states,
+        action_mask=action_mask_of(action_model, states) & mask[:, :, None],
+        pair_mask=pair_mask,
+    )
+
+
+def build_local_games(
+    views: LocalViews, action_model: ActionModel, *, virtual_mean: bool = True
+) -> LocalGameBatch:
+    """The local games of a batch of inboxes (vectorised).
+
+    Parameters
+    ----------
+    views : LocalViews
+        The owners' inboxes (from :func:`gather_views`).
+    action_model : ActionModel
+    virtual_mean : bool
+        Replace every member j with N_j − N_i ≠ ∅ by its virtual mean S̄_j (eq. 3). False keeps
+        the reported states unchanged (the paper's comparison).
+
+    Returns
+    -------
+    LocalGameBatch
+    """
+    outside = reaches_outside(views.members, views.mask, views.neighbourhoods)
+    is_virtual = outside & bool(virtual_mean)
+    states = np.where(is_virtual[:, :, None], views.mean_states, views.states)
+    return _game_from_states(
+        views.owner, views.members, views.mask, states, is_virtual, action_model
+    )
+
+
+def build_local_game(
+    view: LocalView, action_model: ActionModel, *, virtual_mean: bool = True
+) -> LocalGameBatch:
+    """Robot ``view.owner``'s local game alone, as a batch of one game with no padding.
+
+    Same result as :func:`build_local_games` on the same inbox; written per robot with set
+    operations, it is the reference the batched builder is tested against.
+    """
+    members = np.asarray(view.members, dtype=np.int32)
+    inside = set(members.tolist())
+    outside = np.array([bool(set(nb.tolist()) - inside) for nb in view.neighbourhoods])
+    is_virtual = outside & bool(virtual_mean)
+    states = np.where(is_virtual[:, None], view.mean_states, view.states)
+    k = members.size
+    return _game_from_states(
+        np.array([view.owner]),
+        members[None],
+        np.ones((1, k), dtype=bool),
+        states[None],
+        is_virtual[None],
+        action_model,
+    )
+
+
+def local_games(
+    snapshot: TopologySnapshot,
+    h: int,
+    states: np.ndarray,
+    action_model: ActionModel,
+    *,
+    virtual_mean: bool = True,
+    owners=None,
+) -> LocalGameBatch:
+    """Every robot's local game of one stage: ``broadcast`` → ``gather_views`` →
+    ``build_local_games``.
+
+    Parameters
+    ----------
+    snapshot : TopologySnapshot
+    h : int
+        Neighbourhood radius in hops (paper: 2).
+    states : ndarray, shape (N, D)
+    action_model : ActionModel
+    virtual_mean : bool
+        Use the virtual mean neighbours of eq. 3.
+    owners : array_like of int, optional
+        Robots whose games to build (default: all, in id order).
+
+    Returns
+    -------
+    LocalGameBatch
+        B = len(owners) games, K = the largest |N_i|.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swarmgames.network import TopologySnapshot
+    >>> from swarmgames.game.actions import DisplacementActions
+    >>> hops = np.array([[0, 1, 2], [1, 0, 1], [2, 1, 0]])
+    >>> snap = TopologySnapshot.from_hop_matrix(0.0, hops)
+    >>> batch = local_games(snap, 1, np.array([[0.0, 0], [1, 0], [2, 0]]),
+    ...                     DisplacementActions.headings(1.0, 4))
+    >>> batch.members.tolist()
+    [[0, 1, -1], [1, 0, 2], [2, 1, -1]]
+    >>> batch.is_virtual.tolist()[0]
+    [False, True, False]
+    """
+    views = gather_views(broadcast(snapshot, h, states), owners)
+    return build_local_games(views, action_model, virtual_mean=virtual_mean)
+
+
+def centralised_game(
+    snapshot: TopologySnapshot, h: int, states: np.ndarray, action_model: ActionModel
+) -> LocalGameBatch:
+    """The whole swarm as one game (centralised baseline): every robot a variable, actual
+    states, pairwise terms between j and k when k ∈ N_j(h) (``pair_mask``).
+
+    The pairwise table of this game has N² A² entries: meant for small swarms (N ≲ 300).
+    """
+    if not isinstance(h, (int, np.integer)) or h < 1:
+        raise ValueError(f"h must be an integer >= 1 (got {h})")
+    n = snapshot.n_nodes
+    states = _validate_states(states, n)
+    pair = snapshot.neighbourhood_matrix(int(h)).toarray()
+    return _game_from_states(
+        np.array([-1]),
+        np.arange(n)[None],
+        np.ones((1, n), dtype=bool),
+        states[None],
+        np.zeros((1, n), dtype=bool),
+        action_model,
+        pair_mask=pair[None],
+    )
+
+
+def as_csr(messages: Messages) -> sp.csr_array:
+    """The reported neighbourhoods as a boolean CSR matrix (for analysis and plots)."""
+    n = messages.n_robots
+    data = np.ones(messages.indices.size, dtype=bool)
+    return sp.csr_array((data, messages.indices, messages.indptr), shape=(n, n))

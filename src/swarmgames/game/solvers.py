@@ -1,0 +1,410 @@
+"""Local-game solvers behind one interface, the solver registry and the stage-level entry point.
+
+Every solver is a configured, immutable object with
+
+    solve(batch, potentials, rng=None) -> GameSolution      # all B local games at once
+    solve_payoffs(payoffs, rng=None)   -> GameSolution      # same, on evaluated tables
+
+Solvers (``name``):
+
+``mean_field``        Algorithm 1 (:mod:`swarmgames.game.meanfield`), on virtual-mean games.
+``no_virtual_mean``   the same on games with the reported states unchanged (paper's comparison).
+``exact``             the M-maximising profile by enumeration (small neighbourhoods).
+``best_response``     best-response dynamics from the unary argmax.
+``centralised``       mean-field over the whole swarm as one game (see :func:`solve_stage`).
+``random``            a uniformly random valid action.
+
+:func:`solve_stage` is what a simulation loop calls once per control period: it builds the
+games from the routing tables and returns one action per robot.
+
+References
+----------
+.. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
+   Communication Networks", ICRA 2022 workshop, section II.C and Algorithm 1.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from swarmgames.game.actions import ActionModel
+from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
+from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.local import centralised_game, local_games
+from swarmgames.game.meanfield import check_parameters, mean_field
+from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
+from swarmgames.network.topology import TopologySnapshot
+
+__all__ = [
+    "SOLVERS",
+    "BestResponseSolver",
+    "ExactSolver",
+    "GameSolution",
+    "MeanFieldSolver",
+    "RandomSolver",
+    "StageSolution",
+    "make_solver",
+    "normalise_rng",
+    "solve_stage",
+]
+
+SOLVERS = ("mean_field", "no_virtual_mean", "exact", "best_response", "centralised", "random")
+
+
+def normalise_rng(seed: int | np.random.Generator | None) -> np.random.Generator:
+    """A ``numpy.random.Generator`` from a seed, a Generator (returned as is) or None."""
+    if isinstance(seed, np.random.Generator):
+        return seed
+    return np.random.default_rng(seed)
+
+
+@dataclass(frozen=True, eq=False)
+class GameSolution:
+    """Result of solving B local games.
+
+    Parameters
+    ----------
+    solver : str
+        Name of the solver.
+    owner : ndarray of int32, shape (B,)
+    actions : ndarray of int, shape (B,)
+        Action chosen by each owner (variable 0 of its game).
+    profile : ndarray of int, shape (B, K)
+        Pure action of every variable (argmax of its marginal for mean-field); 0 at padding.
+    marginals : ndarray, shape (B, K, A)
+        Q_k(x); one-hot for the pure baselines, uniform over valid actions for ``random``.
+    iterations : ndarray of int, shape (B,)
+    converged : ndarray of bool, shape (B,)
+    kl : ndarray, shape (B,)
+        Final KL(Q_old ‖ Q) (mean-field), 0 for the pure baselines.
+    solve_time_s : float
+        Wall time of the solve (all B games), seconds.
+    eval_time_s : float
+        Wall time of evaluating the potentials, seconds (0 for ``solve_payoffs``).
+    """
+
+    solver: str
+    owner: np.ndarray
+    actions: np.ndarray
+    profile: np.ndarray
+    marginals: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+    kl: np.ndarray
+    solve_time_s: float
+    eval_time_s: float = 0.0
+
+    @property
+    def n_games(self) -> int:
+        """B."""
+        return int(self.owner.size)
+
+    def to_frame(self):
+        """One row per game: owner, action, iterations, converged, kl (pandas DataFrame)."""
+        import pandas as pd
+
+        return pd.DataFrame(
+            {
+                "owner": self.owner,
+                "action": self.actions,
+                "iterations": self.iterations,
+                "converged": self.converged,
+                "kl": self.kl,
+            }
+        )
+
+
+def _one_hot(profile: np.ndarray, payoffs: GamePayoffs) -> np.ndarray:
+    b, k, a = payoffs.shape
+    q = np.zeros((b, k, a))
+    np.put_along_axis(q, profile[:, :, None], 1.0, axis=2)
+    return q * payoffs.mask[:, :, None]
+
+
+def _pure_solution(name, payoffs, profile, iterations, converged, t0, marginals=None):
+    b = payoffs.shape[0]
+    return GameSolution(
+        solver=name,
+        owner=payoffs.owner,
+        actions=profile[:, 0].copy(),
+        profile=profile,
+        marginals=_one_hot(profile, payoffs) if marginals is None else marginals,
+        iterations=iterations,
+        converged=converged,
+        kl=np.zeros(b),
+        solve_time_s=time.perf_counter() - t0,
+    )
+
+
+@dataclass(frozen=True)
+class _Base:
+    alpha_a: float = 1.0
+    alpha_b: float = 0.001
+    dtype: str = "float64"
+
+    name = "base"
+    virtual_mean = True
+
+    def evaluate(self, batch: LocalGameBatch, potentials: Potentials) -> GamePayoffs:
+        """The weighted payoff tables of ``batch`` under this solver's α_a, α_b and dtype."""
+        return evaluate_payoffs(batch, potentials, self.alpha_a, self.alpha_b, dtype=self.dtype)
+
+    def solve(
+        self,
+        batch: LocalGameBatch,
+        potentials: Potentials,
+        rng: int | np.random.Generator | None = None,
+    ) -> GameSolution:
+        """Solve every game of ``batch``; see the class docstring for the method."""
+        t0 = time.perf_counter()
+        payoffs = self.evaluate(batch, potentials)
+        t_eval = time.perf_counter() - t0
+        sol = self.solve_payoffs(payoffs, rng)
+        return GameSolution(**{**sol.__dict__, "eval_time_s": t_eval})
+
+    def solve_payoffs(
+        self, payoffs: GamePayoffs, rng: int | np.random.Generator | None = None
+    ) -> GameSolution:  # pragma: no cover - every solver overrides it
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class MeanFieldSolver(_Base):
+    """Mean-field solver of Algorithm 1 (payoff-maximising sign, see
+    :mod:`swarmgames.game.meanfield`).
+
+    Parameters
+    ----------
+    alpha_a, alpha_b : float
+        Weights of eq. 1 (paper: 1, 0.001).
+    dtype : {"float64", "float32"}
+        Precision of the payoff tables and marginals.
+    beta : float
+        Inverse temperature, > 0.
+    delta : float
+        KL stopping threshold, > 0.
+    max_iter : int
+        Maximum sweeps, >= 1.
+    action_choice : {"argmax", "sample"}
+        Owner's action: argmax of its marginal (ties to the lowest index) or a draw from it.
+    virtual_mean : bool
+        Whether :func:`solve_stage` builds the games with virtual means (eq. 3).
+    """
+
+    beta: float = 50.0
+    delta: float = 1e-6
+    max_iter: int = 200
+    action_choice: Literal["argmax", "sample"] = "argmax"
+    virtual_mean: bool = True  # type: ignore[misc]
+    centralised: bool = False
+
+    def __post_init__(self) -> None:
+        check_parameters(self.beta, self.delta, self.max_iter)
+        if self.action_choice not in ("argmax", "sample"):
+            raise ValueError(
+                f"action_choice must be 'argmax' or 'sample' (got {self.action_choice!r})"
+            )
+
+    @property
+    def name(self) -> str:  # type: ignore[override]
+        """Registry name of this configuration."""
+        if self.centralised:
+            return "centralised"
+        return "mean_field" if self.virtual_mean else "no_virtual_mean"
+
+    def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
+        """Mean-field marginals of every game, then each owner's action."""
+        t0 = time.perf_counter()
+        res = mean_field(payoffs, self.beta, self.delta, self.max_iter)
+        q = res.marginals
+        masked = np.where(payoffs.action_mask, q, -1.0)
+        profile = np.where(payoffs.mask, masked.argmax(axis=2), 0)
+        actions = profile[:, 0].copy()
+        if self.action_choice == "sample":
+            gen = normalise_rng(rng)
+            draw = gen.random(q.shape[0])
+            cdf = np.cumsum(q[:, 0], axis=1)
+            pick = np.minimum((cdf < draw[:, None]).sum(axis=1), q.shape[2] - 1)
+            ok = payoffs.action_mask[np.arange(q.shape[0]), 0, pick]
+            actions = np.where(ok, pick, actions)
+        return GameSolution(
+            solver=self.name,
+            owner=payoffs.owner,
+            actions=actions,
+            profile=profile,
+            marginals=q,
+            iterations=res.iterations,
+            converged=res.converged,
+            kl=res.kl,
+            solve_time_s=time.perf_counter() - t0,
+        )
+
+
+@dataclass(frozen=True)
+class ExactSolver(_Base):
+    """Enumerates every joint profile of each local game and plays the M-maximising one."""
+
+    max_profiles: int = 1_000_000
+    name = "exact"
+
+    def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
+        """The M-maximising profile of every game."""
+        t0 = time.perf_counter()
+        profile = exact_profiles(payoffs, self.max_profiles)
+        b = profile.shape[0]
+        return _pure_solution(
+            self.name, payoffs, profile, np.ones(b, dtype=np.int64), np.ones(b, bool), t0
+        )
+
+
+@dataclass(frozen=True)
+class BestResponseSolver(_Base):
+    """Best-response dynamics (stops at a pure NE of each local game)."""
+
+    max_iter: int = 200
+    name = "best_response"
+
+    def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
+        """Best-response profile of every game."""
+        t0 = time.perf_counter()
+        profile, it, conv = best_response(payoffs, self.max_iter)
+        return _pure_solution(self.name, payoffs, profile, it, conv, t0)
+
+
+@dataclass(frozen=True)
+class RandomSolver(_Base):
+    """A uniformly random valid action for every variable (lower baseline)."""
+
+    name = "random"
+
+    def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
+        """Random profile of every game."""
+        t0 = time.perf_counter()
+        profile = random_profiles(payoffs, normalise_rng(rng))
+        amask = payoffs.action_mask
+        q = amask / np.maximum(amask.sum(axis=2, keepdims=True), 1)
+        b = profile.shape[0]
+        return _pure_solution(
+            self.name, payoffs, profile, np.zeros(b, np.int64), np.ones(b, bool), t0, q
+        )
+
+
+def make_solver(config) -> _Base:
+    """The solver a :class:`~swarmgames.config.GameConfig` names, configured from it.
+
+    Parameters
+    ----------
+    config : GameConfig
+        Uses ``solver``, ``alpha_a``, ``alpha_b``, ``beta``, ``delta``, ``max_iter``,
+        ``action_choice``, ``virtual_mean``, ``precision`` and ``exact_max_profiles``.
+
+    Returns
+    -------
+    MeanFieldSolver, ExactSolver, BestResponseSolver or RandomSolver
+    """
+    name = config.solver
+    common = {
+        "alpha_a": config.alpha_a,
+        "alpha_b": config.alpha_b,
+        "dtype": getattr(config, "precision", "float64"),
+    }
+    if name in ("mean_field", "no_virtual_mean", "centralised"):
+        return MeanFieldSolver(
+            **common,
+            beta=config.beta,
+            delta=config.delta,
+            max_iter=config.max_iter,
+            action_choice=config.action_choice,
+            virtual_mean=bool(config.virtual_mean) and name == "mean_field",
+            centralised=name == "centralised",
+        )
+    if name == "exact":
+        return ExactSolver(**common, max_profiles=getattr(config, "exact_max_profiles", 1_000_000))
+    if name == "best_response":
+        return BestResponseSolver(**common, max_iter=config.max_iter)
+    if name == "random":
+        return RandomSolver(**common)
+    raise ValueError(f"solver must be one of {', '.join(SOLVERS)} (got {name!r})")
+
+
+@dataclass(frozen=True, eq=False)
+class StageSolution:
+    """One stage: every robot's action, plus the games and solution behind it.
+
+    Parameters
+    ----------
+    actions : ndarray of int, shape (N,)
+        Action index of every robot.
+    next_states : ndarray, shape (N, D)
+        Every robot's state after its action (from the action model, actual states).
+    batch : LocalGameBatch
+        The games solved (B = N local games, or one swarm-wide game for ``centralised``).
+    solution : GameSolution
+    build_time_s : float
+        Wall time of building the games, seconds.
+    """
+
+    actions: np.ndarray
+    next_states: np.ndarray
+    batch: LocalGameBatch
+    solution: GameSolution
+    build_time_s: float = field(default=0.0)
+
+
+def solve_stage(
+    solver: _Base,
+    snapshot: TopologySnapshot,
+    h: int,
+    states: np.ndarray,
+    action_model: ActionModel,
+    potentials: Potentials,
+    rng: int | np.random.Generator | None = None,
+) -> StageSolution:
+    """Decide every robot's action for one control period.
+
+    Builds each robot's local game from the routing tables (:func:`local_games`, with the
+    solver's ``virtual_mean``), or the swarm-wide game for the centralised solver, solves them
+    in one batch and returns one action per robot.
+
+    Parameters
+    ----------
+    solver : a solver from :func:`make_solver`
+    snapshot : TopologySnapshot
+    h : int
+        Neighbourhood radius in hops (paper: 2).
+    states : ndarray, shape (N, D)
+    action_model : ActionModel
+    potentials : Potentials
+    rng : int, Generator or None
+
+    Returns
+    -------
+    StageSolution
+    """
+    gen = normalise_rng(rng)
+    t0 = time.perf_counter()
+    states = np.asarray(states, dtype=float)
+    if getattr(solver, "centralised", False):
+        batch = centralised_game(snapshot, h, states, action_model)
+    else:
+        batch = local_games(
+            snapshot, h, states, action_model, virtual_mean=bool(solver.virtual_mean)
+        )
+    t_build = time.perf_counter() - t0
+    sol = solver.solve(batch, potentials, gen)
+    if getattr(solver, "centralised", False):
+        actions = sol.profile[0].copy()
+        if getattr(solver, "action_choice", "argmax") == "sample":
+            q = sol.marginals[0]
+            draw = gen.random(q.shape[0])
+            pick = np.minimum((np.cumsum(q, axis=1) < draw[:, None]).sum(axis=1), q.shape[1] - 1)
+            ok = batch.action_mask[0, np.arange(q.shape[0]), pick]
+            actions = np.where(ok, pick, actions)
+    else:
+        actions = sol.actions
+    nxt = np.asarray(action_model.apply(states))[np.arange(states.shape[0]), actions]
+    return StageSolution(actions, nxt, batch, sol, t_build)
