@@ -274,6 +274,14 @@ class CoverageConfig(_Section):
         gt=0,
         description="Signal model reference distance d0; shorter distances are clamped, metres.",
     )
+    move_cost_db: float = Field(
+        0.01,
+        ge=0,
+        description=(
+            "Cost of one move in the unary potential, dB of expected ROI signal; not in the "
+            "paper (0 = eq. 4 exactly); a small cost lets the swarm settle, dB."
+        ),
+    )
 
     @model_validator(mode="after")
     def _covariance_positive_definite(self) -> CoverageConfig:

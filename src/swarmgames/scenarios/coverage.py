@@ -30,6 +30,14 @@ Computation (the cost is the unary's integral):
 * the ``(games, variables, actions, cells)`` tensor is processed in chunks of local games so
   memory stays bounded for large swarms.
 
+Move cost (an addition to the paper, off when ``move_cost_db = 0``): in eq. 4 every variable
+is scored with the others held at their current states, but all robots move at once. Near the
+optimum this makes neighbours swap back and forth between two adjacent grid positions for
+ever (each step gains a few thousandths of a dB against the old positions of the others). A
+small cost per move, :math:`c_{move}` dB of expected signal, removes these 2-cycles: a robot
+moves only while a move improves its neighbourhood's expected best signal by more than
+:math:`c_{move}`, so the swarm reaches consensus (every robot stays).
+
 References
 ----------
 .. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
@@ -59,6 +67,10 @@ class CoveragePotentials:
         Region of interest and its integration grid.
     signal : SignalModel
         :math:`\\psi_R`.
+    move_cost_db : float, default 0.0
+        Cost of a move, in dB of expected ROI signal: every action that changes a variable's
+        state has :math:`c_{move} \\cdot \\sum_g p(r_g) a^2` subtracted from its unary (0 = the
+        paper's eq. 4 exactly). See the module notes.
     chunk_elems : int, default 4_000_000
         Upper bound on the elements of one temporary ``(games, K, A, cells)`` block.
 
@@ -78,6 +90,7 @@ class CoveragePotentials:
 
     roi: GaussianROI
     signal: SignalModel = field(default_factory=SignalModel)
+    move_cost_db: float = 0.0
     chunk_elems: int = 4_000_000
     last_integrate_s: float = field(default=0.0, init=False)
 
@@ -92,6 +105,7 @@ class CoveragePotentials:
                 coverage.path_exponent,
                 coverage.reference_distance_m,
             ),
+            move_cost_db=coverage.move_cost_db,
         )
 
     # ------------------------------------------------------------------ mission metrics
@@ -144,6 +158,9 @@ class CoveragePotentials:
             other = np.where(holds_best, second, best)  # (b, K, G): max over l != k
             val = np.maximum(fields[nxt_idx[lo:hi]], other[:, :, None, :])  # (b, K, A, G)
             out[lo:hi] = val @ w
+        if self.move_cost_db:
+            moved = np.any(np.abs(nxt - states[:, :, None, :]) > 1e-9, axis=-1)
+            out -= np.where(moved, self.move_cost_db * self.roi.mass, 0.0)
         out[~amask] = 0.0
         self.last_integrate_s = time.perf_counter() - t0
         return out
