@@ -1,0 +1,175 @@
+"""Tests of ``swarmgames.run``: the acceptance criteria, outputs, baselines and bad input."""
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from swarmgames.config import ScenarioConfig, parse_config
+from swarmgames.errors import ConfigError, RunFolderError
+from swarmgames.network.topology import TopologySnapshot
+from swarmgames.runfolder import RunFolder
+from swarmgames.sim import build_mission, run
+from swarmgames.sim.controllers import GameController
+from swarmgames.sim.result import METRICS_COLUMNS, SWARM_COLUMNS, TRAJECTORY_COLUMNS
+
+from .conftest import DiskOracle
+
+
+def _cfg(data=None):
+    base = {"sim": {"duration_s": 6.0, "warmup_s": 2.0, "animation": False}}
+    for key, val in (data or {}).items():
+        if isinstance(val, dict):
+            base.setdefault(key, {}).update(val)
+        else:
+            base[key] = val
+    return parse_config(base)
+
+
+@pytest.fixture(scope="module")
+def default_run():
+    return run(ScenarioConfig(), progress=False, provider=DiskOracle())
+
+
+def test_default_run_meets_acceptance(default_run):
+    # Issue acceptance: payoff and coverage rise and settle, consensus, median local regret 0.
+    sw = default_run.to_frame()
+    s = default_run.summary
+    assert sw["mean_payoff"].iloc[-1] > sw["mean_payoff"].iloc[0]
+    assert sw["coverage"].iloc[-1] > sw["coverage"].iloc[0] + 5.0  # dB
+    last = sw.tail(10)
+    assert last["coverage"].max() - last["coverage"].min() < 1e-9  # settled
+    assert s["consensus"] and s["moving_robots_last_stage"] == 0
+    assert s["median_local_regret"] == 0.0
+    assert s["max_hops_end"] >= 2  # the default ROI makes the network multi-hop
+    assert sw["max_hops"].iloc[0] == 1  # common take-off area: one clique at the start
+
+
+def test_tables_have_documented_columns(default_run):
+    assert list(default_run.to_frame("trajectory").columns) == TRAJECTORY_COLUMNS
+    assert list(default_run.to_frame("metrics").columns) == METRICS_COLUMNS
+    assert list(default_run.to_frame("swarm").columns) == SWARM_COLUMNS
+    with pytest.raises(ValueError, match="table must be one of"):
+        default_run.to_frame("nope")
+
+
+def test_run_folder_outputs(tmp_path):
+    cfg = _cfg({"sim": {"animation": True, "animation_frames": 3}, "swarm": {"n_robots": 3}})
+    res = run(cfg, out=tmp_path / "r", progress=False, provider=DiskOracle())
+    names = {p.name for p in (tmp_path / "r").iterdir()}
+    assert names == {
+        "config.toml",
+        "trajectory.csv",
+        "metrics.csv",
+        "swarm.csv",
+        "timeseries.png",
+        "paths.png",
+        "animation.gif",
+        "summary.json",
+    }
+    assert (tmp_path / "r" / "animation.gif").read_bytes()[:6] == b"GIF89a"
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert summary["stages"] == 6 and summary["n_robots"] == 3
+    again = pd.read_csv(tmp_path / "r" / "metrics.csv")
+    assert len(again) == len(res.metrics)
+    from swarmgames.config import load_config
+
+    assert load_config(tmp_path / "r" / "config.toml") == cfg
+    with pytest.raises(RunFolderError, match="not empty"):
+        run(cfg, out=tmp_path / "r", progress=False, provider=DiskOracle())
+    run(cfg, out=RunFolder(tmp_path / "r", force=True), progress=False, provider=DiskOracle())
+
+
+@pytest.mark.parametrize(
+    "game",
+    [
+        {"solver": "mean_field"},
+        {"solver": "mean_field", "virtual_mean": False},
+        {"solver": "no_virtual_mean"},
+        {"solver": "best_response"},
+        {"solver": "exact"},
+        {"solver": "centralised"},
+        {"solver": "random"},
+        {"solver": "mean_field", "action_choice": "sample"},
+    ],
+)
+def test_solvers_selectable(game):
+    res = run(_cfg({"swarm": {"n_robots": 3}, "game": game}), progress=False, provider=DiskOracle())
+    m = res.to_frame("metrics")
+    assert len(m) == 18
+    assert np.isfinite(m[["payoff", "local_regret", "global_regret"]]).all().all()
+    assert (m["local_regret"] >= 0).all() and (m["global_regret"] >= 0).all()
+
+
+def test_lloyd_baseline_improves_coverage():
+    res = run(
+        _cfg({"sim": {"controller": "lloyd", "duration_s": 20.0}}),
+        progress=False,
+        provider=DiskOracle(),
+    )
+    sw = res.to_frame()
+    assert sw["coverage"].iloc[-1] > sw["coverage"].iloc[0]
+    assert res.summary["controller"] == "lloyd"
+
+
+def test_two_robot_payoff_against_hand_computation():
+    # Robot 0's local game with robot 1 as its only (non-virtual) neighbour. The profile the
+    # solver settles on is (x0, x1); M_0 = phi_u(0, x0) + phi_u(1, x1) + 0.001 * 2 * psi(d),
+    # eq. 1 with eqs. 4-5 (paper section III), every term computed here by hand.
+    cfg = _cfg()
+    pot, model = build_mission(cfg)
+    pos = np.array([[-100.0, 0.0, 30.0], [120.0, 40.0, 30.0]])
+    snap = TopologySnapshot.from_hop_matrix(0.0, np.array([[0, 1], [1, 0]]))
+    ctrl = GameController(cfg, pot, model)
+    dec = ctrl.decide(snap, pos, np.random.default_rng(0))
+    # In a two-robot clique both local games are the same game; each owner plays its own
+    # entry of the shared profile.
+    x0, x1 = (int(a) for a in dec.actions)
+    t0, l0, n = 16.0206, 46.6777, 3.0
+
+    def psi(d):
+        return t0 - (l0 + 10 * n * math.log10(max(d, 1.0)))
+
+    def unary(me, other, moved):
+        # eq. 4 on the ROI grid, minus the per-move cost (coverage.move_cost_db = 0.01 dB)
+        integral = sum(
+            w * max(psi(math.dist(me, (*r, 0.0))), psi(math.dist(other, (*r, 0.0))))
+            for r, w in zip(pot.roi.points, pot.roi.weights, strict=True)
+        )
+        return integral - (0.01 * float(np.sum(pot.roi.weights)) if moved else 0.0)
+
+    n0 = pos[0] + model.offsets[x0]
+    n1 = pos[1] + model.offsets[x1]
+    hand = (
+        unary(n0, pos[1], x0 != 0) + unary(n1, pos[0], x1 != 0) + 0.001 * 2 * psi(math.dist(n0, n1))
+    )
+    assert dec.payoff[0] == pytest.approx(hand, abs=1e-2)
+    assert dec.neighbours.tolist() == [1, 1]
+
+
+@pytest.mark.parametrize(
+    ("data", "match"),
+    [
+        ({"swarm": {"step_m": 20.0}}, r"swarm.step_m / sim.control_period_s must be <= "),
+        ({"sim": {"duration_s": 0.5}}, r"sim.duration_s must be >= sim.control_period_s"),
+        ({"coverage": {"grid_cell_m": 1000.0}}, r"coverage: cell_m must be <= "),
+        ({"swarm": {"n_robots": 0}}, r"swarm.n_robots: must be >= 1 \(got 0\)"),
+        ({"coverage": {"confidence": 1.5}}, r"coverage.confidence: must be < 1"),
+        ({"sim": {"controller": "voronoi"}}, r"sim.controller"),
+        ({"coverage": {"move_cost_db": -1.0}}, r"coverage.move_cost_db: must be >= 0"),
+        (
+            {"coverage": {"roi_cov_m2": [[1.0, 2.0], [2.0, 1.0]]}},
+            "roi_cov_m2 must be symmetric positive definite",
+        ),
+    ],
+)
+def test_bad_configurations_rejected(data, match):
+    with pytest.raises(ConfigError, match=match):
+        run(_cfg(data), progress=False, provider=DiskOracle())
+
+
+def test_config_type_checked():
+    with pytest.raises(TypeError, match="config must be a ScenarioConfig"):
+        run({"swarm": {}}, progress=False)
