@@ -30,7 +30,7 @@ References
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import stats
@@ -135,7 +135,7 @@ class PropagationModel:
     preamble-detection gate at 6 Mbit/s, REFERENCE.md section 2).
     """
 
-    radio: RadioConfig = RadioConfig()
+    radio: RadioConfig = field(default_factory=RadioConfig)
 
     @property
     def random(self) -> bool:

@@ -358,8 +358,7 @@ class OlsrEngine:
             out_o.append(m)
             out_t.append(t)
             # Retransmit when the copy came from an MPR selector of r.
-            si, sf = self._lookup(sel_keys, r * n + f)
-            relay = sf
+            _, relay = self._lookup(sel_keys, r * n + f)
             msg, fwd = m[relay], r[relay]
             t_send = t[relay] + self._jitter(int(relay.sum()))
         if out_r:

@@ -83,7 +83,7 @@ def compute_routes(
     all_k = all_k[order]
     all_h = np.concatenate(hops)[order]
     all_n = np.concatenate(nexts)[order]
-    if tp_owner is not None and tp_owner.size:
+    if tp_owner is not None and tp_owner.size and all_k.size:
         tp_o = tp_owner.astype(np.int64)
         kd = tp_o * n + tp_dest
         kl = tp_o * n + tp_last
@@ -91,8 +91,8 @@ def compute_routes(
         kd, kl = kd[valid], kl[valid]
         h = 2
         while max_hops is None or h < max_hops:
-            idx = np.minimum(np.searchsorted(all_k, kl), max(all_k.size - 1, 0))
-            at_h = (all_k.size > 0) & (all_k[idx] == kl) & (all_h[idx] == h)
+            idx = np.minimum(np.searchsorted(all_k, kl), all_k.size - 1)
+            at_h = (all_k[idx] == kl) & (all_h[idx] == h)
             if not at_h.any():
                 break
             pos = np.searchsorted(all_k, kd)
