@@ -193,6 +193,10 @@ class MeanFieldSolver(_Base):
         Owner's action: argmax of its marginal (ties to the lowest index) or a draw from it.
     virtual_mean : bool
         Whether :func:`solve_stage` builds the games with virtual means (eq. 3).
+    centralised : bool
+        Whether :func:`solve_stage` solves the swarm as one game (centralised baseline).
+    summation : {"blas", "sequential"}
+        See :func:`~swarmgames.game.meanfield.mean_field`.
     """
 
     beta: float = 50.0
@@ -201,6 +205,7 @@ class MeanFieldSolver(_Base):
     action_choice: Literal["argmax", "sample"] = "argmax"
     virtual_mean: bool = True  # type: ignore[misc]
     centralised: bool = False
+    summation: Literal["blas", "sequential"] = "blas"
 
     def __post_init__(self) -> None:
         check_parameters(self.beta, self.delta, self.max_iter)
@@ -219,7 +224,7 @@ class MeanFieldSolver(_Base):
     def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
         """Mean-field marginals of every game, then each owner's action."""
         t0 = time.perf_counter()
-        res = mean_field(payoffs, self.beta, self.delta, self.max_iter)
+        res = mean_field(payoffs, self.beta, self.delta, self.max_iter, summation=self.summation)
         q = res.marginals
         masked = np.where(payoffs.action_mask, q, -1.0)
         profile = np.where(payoffs.mask, masked.argmax(axis=2), 0)

@@ -1,0 +1,1 @@
+"""Benchmarks: functions that time parts of swarmgames and return plain dict records."""

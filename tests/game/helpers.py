@@ -1,0 +1,69 @@
+"""Random local games for the game-engine tests."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse.csgraph as csgraph
+
+from swarmgames.game import LocalGameBatch, TablePotentials
+from swarmgames.network import TopologySnapshot
+
+
+def random_games(
+    seed: int,
+    n_games: int,
+    n_vars: int,
+    n_actions: int,
+    *,
+    ragged: bool = True,
+    pairwise: bool = True,
+    scale: float = 1.0,
+) -> tuple[LocalGameBatch, TablePotentials]:
+    """B random local games: left-packed valid variables (variable 0 always valid), random
+    valid-action masks with at least one valid action, standard-normal tables. Padding and
+    invalid entries of the tables hold NaN, which the engine must never read."""
+    rng = np.random.default_rng(seed)
+    b, k, a = n_games, n_vars, n_actions
+    n_valid = rng.integers(1, k + 1, size=b) if ragged else np.full(b, k)
+    mask = np.arange(k)[None, :] < n_valid[:, None]
+    amask = rng.random((b, k, a)) < 0.8 if ragged else np.ones((b, k, a), dtype=bool)
+    amask[np.arange(b)[:, None], np.arange(k)[None, :], rng.integers(0, a, size=(b, k))] = True
+    amask &= mask[:, :, None]
+    states = rng.normal(size=(b, k, 2))
+    batch = LocalGameBatch(
+        owner=np.arange(b),
+        members=np.where(mask, np.arange(k)[None, :] + 100, -1),
+        mask=mask,
+        states=states,
+        is_virtual=np.zeros((b, k), dtype=bool),
+        next_states=np.broadcast_to(states[:, :, None, :], (b, k, a, 2)),
+        action_mask=amask,
+    )
+    u = scale * rng.normal(size=(b, k, a))
+    u[~amask] = np.nan
+    p = None
+    if pairwise:
+        p = scale * rng.normal(size=(b, k, k, a, a))
+        p[~mask] = np.nan
+    return batch, TablePotentials(u, p)
+
+
+def trimmed_game(batch: LocalGameBatch, pot: TablePotentials, g: int):
+    """Game ``g`` alone, without padding columns, and its potentials."""
+    one = batch.select([g]).trim()
+    k, a = one.n_vars, one.n_actions
+    u = np.asarray(pot.unary_table)[g : g + 1, :k, :a]
+    p = None
+    if pot.pairwise_table is not None:
+        p = np.asarray(pot.pairwise_table)[g : g + 1, :k, :k, :a, :a]
+    return one, TablePotentials(u, p)
+
+
+def disk_snapshot(positions: np.ndarray, radius: float, time: float = 0.0) -> TopologySnapshot:
+    """Snapshot with BFS hop counts on the disk graph of ``radius`` (REFERENCE.md section 4:
+    settled OLSR hop counts equal BFS hop counts on the disk graph)."""
+    pos = np.asarray(positions, dtype=float)
+    d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=-1)
+    adj = (d <= radius) & ~np.eye(len(pos), dtype=bool)
+    hops = csgraph.shortest_path(adj.astype(float), unweighted=True)
+    return TopologySnapshot.from_hop_matrix(time, hops)
