@@ -274,6 +274,22 @@ class CoverageConfig(_Section):
         gt=0,
         description="Signal model reference distance d0; shorter distances are clamped, metres.",
     )
+    separation_m: float = Field(
+        50.0,
+        ge=0,
+        description=(
+            "Distance below which a robot's next position is penalised for crowding another "
+            "robot (not in the paper; 0 = off), metres."
+        ),
+    )
+    separation_cost_db: float = Field(
+        0.1,
+        ge=0,
+        description=(
+            "Weight of the crowding penalty, dB of expected ROI signal at zero distance "
+            "(not in the paper; 0 = off), dB."
+        ),
+    )
     move_cost_db: float = Field(
         0.01,
         ge=0,

@@ -149,3 +149,20 @@ def test_coverage_metric(small):
     assert centre == pytest.approx(f @ pot.roi.weights / pot.roi.weights.sum(), abs=1e-4)
     with pytest.raises(ValueError, match="at least one robot"):
         pot.coverage(np.zeros((0, 3)))
+
+
+def test_move_cost_and_crowding_penalty(small):
+    base, model = small
+    roi, sig = base.roi, base.signal
+    pot = CoveragePotentials(roi, sig, move_cost_db=0.01, separation_m=50.0, separation_cost_db=0.1)
+    s = np.array([[[0.0, 0.0, 30.0], [20.0, 0.0, 30.0]]])
+    batch = _batch(s, [[True, True]], model)
+    diff = base.unary(batch) - pot.unary(batch)
+    nxt = model.apply(s[0])  # (2, A, 3)
+    for k, other in ((0, 1), (1, 0)):
+        d = np.linalg.norm(nxt[k] - s[0, other], axis=-1)
+        crowd = 0.1 * roi.mass * np.maximum(0.0, 1.0 - d / 50.0) ** 2
+        moved = np.r_[0.0, np.full(model.n_actions - 1, 0.01 * roi.mass)]
+        np.testing.assert_allclose(diff[0, k], crowd + moved, atol=1e-9)
+    # moving away from the neighbour (heading 180 degrees for robot 0) is penalised least
+    assert np.argmin(diff[0, 0, 1:]) + 1 == 3  # 4 headings: 0, 90, 180, 270 degrees

@@ -30,7 +30,17 @@ Computation (the cost is the unary's integral):
 * the ``(games, variables, actions, cells)`` tensor is processed in chunks of local games so
   memory stays bounded for large swarms.
 
-Move cost (an addition to the paper, off when ``move_cost_db = 0``): in eq. 4 every variable
+Two additions to the paper, both off when their weight is 0 (the defaults of
+:class:`~swarmgames.config.CoverageConfig` switch them on, and ``docs/coverage.md`` shows
+what each one changes):
+
+Crowding penalty (``separation_m``, ``separation_cost_db``): robots that take off from one
+small area see almost the same neighbourhood, so eq. 4 gives them almost the same best move and
+they fly in lockstep as a clump. A penalty that grows as a robot's next position comes within
+:math:`d_{sep}` of another robot's current position depends on where each robot sits in the
+clump, so neighbours choose different headings; it doubles as collision avoidance.
+
+Move cost: in eq. 4 every variable
 is scored with the others held at their current states, but all robots move at once. Near the
 optimum this makes neighbours swap back and forth between two adjacent grid positions for
 ever (each step gains a few thousandths of a dB against the old positions of the others). A
@@ -67,6 +77,10 @@ class CoveragePotentials:
         Region of interest and its integration grid.
     signal : SignalModel
         :math:`\\psi_R`.
+    separation_m, separation_cost_db : float, default 0.0
+        Crowding penalty: :math:`c_{sep} \\sum_g p(r_g) a^2 \\sum_{l \ne k}
+        \\max(0, 1 - d(S_k(x_k), S_l) / d_{sep})^2` is subtracted from the unary (0 = off).
+        See the module notes.
     move_cost_db : float, default 0.0
         Cost of a move, in dB of expected ROI signal: every action that changes a variable's
         state has :math:`c_{move} \\cdot \\sum_g p(r_g) a^2` subtracted from its unary (0 = the
@@ -91,6 +105,8 @@ class CoveragePotentials:
     roi: GaussianROI
     signal: SignalModel = field(default_factory=SignalModel)
     move_cost_db: float = 0.0
+    separation_m: float = 0.0
+    separation_cost_db: float = 0.0
     chunk_elems: int = 4_000_000
     last_integrate_s: float = field(default=0.0, init=False)
 
@@ -106,6 +122,8 @@ class CoveragePotentials:
                 coverage.reference_distance_m,
             ),
             move_cost_db=coverage.move_cost_db,
+            separation_m=coverage.separation_m,
+            separation_cost_db=coverage.separation_cost_db,
         )
 
     # ------------------------------------------------------------------ mission metrics
@@ -156,14 +174,34 @@ class CoveragePotentials:
             second = rest.max(axis=1, keepdims=True)  # (b, 1, G)
             holds_best = best_k[:, None, :] == np.arange(K)[None, :, None]
             other = np.where(holds_best, second, best)  # (b, K, G): max over l != k
-            val = np.maximum(fields[nxt_idx[lo:hi]], other[:, :, None, :])  # (b, K, A, G)
+            f = fields[nxt_idx[lo:hi]]  # (b, K, A, G)
+            o = other[:, :, None, :]
+            val = np.maximum(f, o)
             out[lo:hi] = val @ w
+        if self.separation_m > 0 and self.separation_cost_db > 0:
+            out -= self._crowding(mask, states, nxt)
         if self.move_cost_db:
             moved = np.any(np.abs(nxt - states[:, :, None, :]) > 1e-9, axis=-1)
             out -= np.where(moved, self.move_cost_db * self.roi.mass, 0.0)
         out[~amask] = 0.0
         self.last_integrate_s = time.perf_counter() - t0
         return out
+
+    def _crowding(self, mask, states, nxt) -> np.ndarray:
+        """Separation penalty of every next state against the others' current states,
+        :math:`c_{sep} \\sum_g p_g a^2 \\sum_{l \ne k} \\max(0, 1 - d_{kl} / d_{sep})^2`."""
+        B, K, A = nxt.shape[:3]
+        out = np.zeros((B, K, A))
+        others = mask[:, None, :] & ~np.eye(K, dtype=bool)[None]  # (B, K, L)
+        step = max(1, self.chunk_elems // max(1, K * A * K))
+        for lo in range(0, B, step):
+            hi = min(B, lo + step)
+            d = np.linalg.norm(
+                nxt[lo:hi, :, :, None, :] - states[lo:hi, None, None, :, :], axis=-1
+            )  # (b, K, A, L)
+            pen = np.maximum(0.0, 1.0 - d / self.separation_m) ** 2
+            out[lo:hi] = np.where(others[lo:hi, :, None, :], pen, 0.0).sum(axis=-1)
+        return self.separation_cost_db * self.roi.mass * out
 
     def pairwise(self, batch) -> np.ndarray:
         """:math:`\\phi_p(k, x_k, l, x_l)` of eq. 5, shape (B, K, K, A, A); 0 on the diagonal

@@ -119,7 +119,7 @@ def run(
         sw.n_robots, sw.start_center_m, sw.start_radius_m, sw.altitude_m, rng_start
     )
     if provider is None:
-        from swarmgames.network import make_provider
+        from swarmgames.network.factory import make_provider
 
         provider = make_provider(config.network, sw.n_robots, rng_net)
     ctrl_cls = GameController if sim.controller == "game" else LloydController
