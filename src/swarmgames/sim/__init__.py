@@ -4,7 +4,7 @@ from swarmgames.sim.controllers import Decision, GameController, LloydController
 from swarmgames.sim.lloyd import lloyd_actions, voronoi_centroids
 from swarmgames.sim.loop import StageLog, run_stages, start_positions
 from swarmgames.sim.result import RunResult
-from swarmgames.sim.run import build_mission, check_config, run
+from swarmgames.sim.runner import build_mission, check_config, run
 
 __all__ = [
     "Decision",
