@@ -52,14 +52,19 @@ def test_graph_stats_of_partition():
     assert edges.tolist() == [[0, 1], [2, 3]]
 
 
-def test_same_seed_identical_run_and_other_seed_differs():
-    cfg = _cfg(seed=3)
-    a = run(cfg, progress=False, provider=DiskOracle())
-    b = run(cfg, progress=False, provider=DiskOracle())
+@pytest.mark.parametrize("backend", ["olsr", "test-disk"])
+def test_same_seed_identical_run_and_other_seed_differs(backend):
+    cfg = _cfg(seed=3, swarm={"start_radius_m": 200.0})
+
+    def provider():
+        return DiskOracle() if backend == "test-disk" else None
+
+    a = run(cfg, progress=False, provider=provider())
+    b = run(cfg, progress=False, provider=provider())
     for table in ("trajectory", "metrics"):
         cols = [c for c in a.to_frame(table).columns if not c.endswith("_ms")]
         assert a.to_frame(table)[cols].equals(b.to_frame(table)[cols])
-    c = run(_cfg(seed=4), progress=False, provider=DiskOracle())
+    c = run(_cfg(seed=4, swarm={"start_radius_m": 200.0}), progress=False, provider=provider())
     assert not a.trajectory.equals(c.trajectory)
 
 

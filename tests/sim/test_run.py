@@ -30,7 +30,8 @@ def _cfg(data=None):
 
 @pytest.fixture(scope="module")
 def default_run():
-    return run(ScenarioConfig(), progress=False, provider=DiskOracle())
+    # The default scenario exactly as a user runs it: OLSR neighbourhoods.
+    return run(ScenarioConfig(), progress=False)
 
 
 def test_default_run_meets_acceptance(default_run):
@@ -168,6 +169,16 @@ def test_two_robot_payoff_against_hand_computation():
 def test_bad_configurations_rejected(data, match):
     with pytest.raises(ConfigError, match=match):
         run(_cfg(data), progress=False, provider=DiskOracle())
+
+
+def test_exact_solver_on_too_large_game_says_why():
+    # 7 robots in one clique: 9^7 = 4.8 million joint profiles per local game
+    with pytest.raises(ConfigError, match="game.solver = 'exact' cannot solve this stage"):
+        run(
+            _cfg({"swarm": {"n_robots": 7}, "game": {"solver": "exact"}}),
+            progress=False,
+            provider=DiskOracle(),
+        )
 
 
 def test_config_type_checked():

@@ -91,6 +91,17 @@ class _Measured:
         pay = self.solver.evaluate(batch, self.potentials)
         return batch, pay, time.perf_counter() - t0
 
+    def _solve(self, pay, rng):
+        try:
+            return self.solver.solve_payoffs(pay, rng)
+        except ValueError as exc:
+            if self.cfg.game.solver != "exact":
+                raise
+            raise ConfigError(
+                f"game.solver = 'exact' cannot solve this stage: {exc}; raise "
+                "game.exact_max_profiles, use fewer robots or another solver"
+            ) from None
+
     def _true_measures(self, snapshot, positions, actions, pay_true=None):
         """Payoff, local and global regret of every robot's true local game (actual states,
         no virtual means) at the robots' actual actions."""
@@ -128,7 +139,7 @@ class GameController(_Measured):
             t0 = time.perf_counter()
             pay = self.solver.evaluate(batch, self.potentials)
             integ_s = time.perf_counter() - t0
-            sol = self.solver.solve_payoffs(pay, rng)
+            sol = self._solve(pay, rng)
             actions = np.asarray(sol.profile[0], dtype=np.int64)
             payoff, lreg, greg = self._true_measures(snapshot, positions, actions)
             _, pay_local, _ = self._games(snapshot, positions, virtual_mean=False)
@@ -139,7 +150,7 @@ class GameController(_Measured):
         else:
             vm = bool(self.cfg.game.virtual_mean) and bool(self.solver.virtual_mean)
             batch, pay, integ_s = self._games(snapshot, positions, vm)
-            sol = self.solver.solve_payoffs(pay, rng)
+            sol = self._solve(pay, rng)
             owners = np.asarray(batch.owner)
             actions = _scatter(owners, np.asarray(sol.actions, dtype=np.int64), n)
             # The robot's own view: its local game at the profile it settled on.
