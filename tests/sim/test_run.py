@@ -173,7 +173,7 @@ def test_bad_configurations_rejected(data, match):
 
 def test_exact_solver_on_too_large_game_says_why():
     # 7 robots in one clique: 9^7 = 4.8 million joint profiles per local game
-    with pytest.raises(ConfigError, match="game.solver = 'exact' cannot solve this stage"):
+    with pytest.raises(ConfigError, match=r"game\.solver = 'exact' cannot solve this stage"):
         run(
             _cfg({"swarm": {"n_robots": 7}, "game": {"solver": "exact"}}),
             progress=False,
