@@ -46,14 +46,14 @@ def render_gif(result, max_frames: int = 60, fps: int = 8) -> bytes:
         near = _two_hop(edges, n, 0)
         ax.scatter(xy[k, :, 0], xy[k, :, 1], s=18, color="tab:blue", zorder=3)
         ax.scatter(xy[k, near, 0], xy[k, near, 1], s=30, color="tab:orange", zorder=4)
-        ax.scatter(xy[k, 0, 0], xy[k, 0, 1], s=45, color="tab:red", zorder=5)
+        ax.scatter(xy[k, 0, 0], xy[k, 0, 1], s=70, color="red", edgecolors="k", zorder=5)
         ax.set_xlim(lo[0] - pad, hi[0] + pad)
         ax.set_ylim(lo[1] - pad, hi[1] + pad)
         ax.set_aspect("equal")
         ax.set_title(f"t = {times[k]:.0f} s  (robot 0 red, its N(2) orange)", fontsize=9)
         canvas.draw()
         rgba = np.asarray(canvas.buffer_rgba())
-        frames.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=64))
+        frames.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=128))
     buf = io.BytesIO()
     frames[0].save(
         buf,
