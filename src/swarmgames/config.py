@@ -204,6 +204,13 @@ class GameConfig(_Section):
         ge=1,
         description="Largest number of joint profiles the exact solver enumerates per game.",
     )
+    buckets: int = Field(
+        0,
+        ge=0,
+        le=1024,
+        description="Local games are solved in this many batches of similar neighbourhood "
+        "size (less padding); 0 = automatic (one per 128 robots, at most 8).",
+    )
 
 
 class SwarmConfig(_Section):

@@ -7,6 +7,7 @@ See ``docs/game.md`` for the guide and the contract with scenarios.
 from swarmgames.game.actions import ActionModel, DisplacementActions, action_mask_of
 from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
 from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.checks import check_action_model, check_potentials
 from swarmgames.game.equilibrium import (
     deviation_gains,
     enumerate_payoffs,
@@ -42,11 +43,11 @@ from swarmgames.game.solvers import (
     GameSolution,
     MeanFieldSolver,
     RandomSolver,
-    StageSolution,
+    Solver,
     make_solver,
     normalise_rng,
-    solve_stage,
 )
+from swarmgames.game.stage import StageSolution, solve_stage, stage_regret
 from swarmgames.game.virtual import neighbourhood_means, reaches_outside
 
 __all__ = [
@@ -66,6 +67,7 @@ __all__ = [
     "Messages",
     "Potentials",
     "RandomSolver",
+    "Solver",
     "StageSolution",
     "TablePotentials",
     "action_mask_of",
@@ -74,6 +76,8 @@ __all__ = [
     "build_local_game",
     "build_local_games",
     "centralised_game",
+    "check_action_model",
+    "check_potentials",
     "deviation_gains",
     "enumerate_payoffs",
     "evaluate_payoffs",
@@ -92,4 +96,5 @@ __all__ = [
     "reaches_outside",
     "receive",
     "solve_stage",
+    "stage_regret",
 ]

@@ -27,6 +27,15 @@ def _frozen(a, dtype=None) -> np.ndarray:
     return out
 
 
+def _freeze_arrays(obj) -> None:
+    """Replace every ndarray field of a frozen dataclass by a read-only view (no copy)."""
+    for name, value in vars(obj).items():
+        if isinstance(value, np.ndarray) and value.flags.writeable:
+            view = value.view()
+            view.setflags(write=False)
+            object.__setattr__(obj, name, view)
+
+
 @dataclass(frozen=True, eq=False)
 class LocalGameBatch:
     """B local games as padded arrays (K = most variables, A = most actions, D = state size).
@@ -164,4 +173,40 @@ class LocalGameBatch:
             next_states=self.next_states[:, :k, :a],
             action_mask=self.action_mask[:, :k, :a],
             pair_mask=None if self.pair_mask is None else self.pair_mask[:, :k, :k],
+        )
+
+    @classmethod
+    def concat(cls, batches) -> LocalGameBatch:
+        """One batch holding the games of ``batches`` in order, padded to the widest K and A.
+
+        All batches must have the same state size D. ``pair_mask`` is kept only if every batch
+        has one (None otherwise).
+        """
+        batches = list(batches)
+        if not batches:
+            raise ValueError("batches must not be empty")
+        d = {b.state_dim for b in batches}
+        if len(d) != 1:
+            raise ValueError(f"batches must share the state size D (got {sorted(d)})")
+        k = max(b.n_vars for b in batches)
+        a = max(b.n_actions for b in batches)
+
+        def pad(arr, width, fill):
+            widths = [(0, 0)] * arr.ndim
+            for axis, size in width.items():
+                widths[axis] = (0, size - arr.shape[axis])
+            return np.pad(arr, widths, constant_values=fill)
+
+        keep_pairs = all(b.pair_mask is not None for b in batches)
+        return cls(
+            owner=np.concatenate([b.owner for b in batches]),
+            members=np.concatenate([pad(b.members, {1: k}, -1) for b in batches]),
+            mask=np.concatenate([pad(b.mask, {1: k}, False) for b in batches]),
+            states=np.concatenate([pad(b.states, {1: k}, 0.0) for b in batches]),
+            is_virtual=np.concatenate([pad(b.is_virtual, {1: k}, False) for b in batches]),
+            next_states=np.concatenate([pad(b.next_states, {1: k, 2: a}, 0.0) for b in batches]),
+            action_mask=np.concatenate([pad(b.action_mask, {1: k, 2: a}, False) for b in batches]),
+            pair_mask=np.concatenate([pad(b.pair_mask, {1: k, 2: k}, False) for b in batches])
+            if keep_pairs
+            else None,
         )

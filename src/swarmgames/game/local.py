@@ -28,7 +28,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
 from swarmgames.game.actions import ActionModel, action_mask_of
 from swarmgames.game.batch import LocalGameBatch
@@ -378,10 +377,3 @@ def centralised_game(
         action_model,
         pair_mask=pair[None],
     )
-
-
-def as_csr(messages: Messages) -> sp.csr_array:
-    """The reported neighbourhoods as a boolean CSR matrix (for analysis and plots)."""
-    n = messages.n_robots
-    data = np.ones(messages.indices.size, dtype=bool)
-    return sp.csr_array((data, messages.indices, messages.indptr), shape=(n, n))

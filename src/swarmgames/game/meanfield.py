@@ -39,10 +39,11 @@ Exactness of batching
 Every game is computed by its own arithmetic: a game solved inside a batch and the same game
 (same padded width K) solved alone give bit-identical results, whatever the other games are.
 Padding only adds exact zeros; with ``summation="sequential"`` every sum runs in a fixed
-sequential order (``np.cumsum(...)[..., -1]``), so a game also gives bit-identical results
-whatever its padded width (a robot's game built alone vs inside the stage batch). The default
-``summation="blas"`` contracts with BLAS, whose blocking depends on the vector length: across
-different widths K the marginals then agree to rounding (~1e-15 relative), not bit for bit.
+sequential order (column by column, never numpy's pairwise summation), so a game also gives
+bit-identical results whatever its padded width (a robot's game built alone vs inside the
+stage batch). The default ``summation="blas"`` contracts with BLAS, whose blocking depends on
+the vector length: across different widths K the marginals then agree to rounding (~1e-15
+relative), not bit for bit.
 
 References
 ----------
@@ -58,6 +59,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from swarmgames.game.batch import _freeze_arrays
 from swarmgames.game.potentials import GamePayoffs
 
 __all__ = ["MeanFieldResult", "masked_softmax", "mean_field", "seq_sum"]
@@ -80,12 +82,36 @@ def masked_softmax(logits: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return e / np.where(s > 0, s, 1.0)
 
 
+def _colsum(x: np.ndarray) -> np.ndarray:
+    """Sum over the last axis, column by column (fixed order, no pairwise summation): the same
+    bits whatever the leading shape, and numpy's short-row reductions are slow anyway."""
+    out = x[..., 0].copy()
+    for c in range(1, x.shape[-1]):
+        out += x[..., c]
+    return out
+
+
+def _colmax(x: np.ndarray) -> np.ndarray:
+    """Maximum over the last axis, column by column."""
+    out = x[..., 0].copy()
+    for c in range(1, x.shape[-1]):
+        np.maximum(out, x[..., c], out=out)
+    return out
+
+
+def _softmax(z: np.ndarray) -> np.ndarray:
+    """In-place softmax over the last axis of finite-max logits (``-inf`` entries give 0)."""
+    z -= _colmax(z)[..., None]
+    np.exp(z, out=z)
+    z /= _colsum(z)[..., None]
+    return z
+
+
 def _kl(q_old: np.ndarray, q: np.ndarray) -> np.ndarray:
     """KL(Q_old ‖ Q) of product distributions, per game: (B, K, A) -> (B,)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         terms = np.where(q_old > 0, q_old * (np.log(q_old) - np.log(q)), 0.0)
-    b = q.shape[0]
-    return seq_sum(terms.reshape(b, -1))
+    return _colsum(_colsum(terms))
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,6 +135,9 @@ class MeanFieldResult:
     converged: np.ndarray
     kl: np.ndarray
 
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
+
 
 def _pair_field(w: np.ndarray, q: np.ndarray, k: int, sequential: bool) -> np.ndarray:
     """Σ_l Σ_c W[:, k, x, l, c] Q_l(c) for every game and action x, (B, A)."""
@@ -122,7 +151,7 @@ def _pair_field(w: np.ndarray, q: np.ndarray, k: int, sequential: bool) -> np.nd
     acc = w[:, k, :, :, 0] * q[:, None, :, 0]
     for c in range(1, a):
         acc += w[:, k, :, :, c] * q[:, None, :, c]
-    return seq_sum(acc)
+    return _colsum(acc)
 
 
 def check_parameters(beta: float, delta: float, max_iter: int) -> None:
@@ -174,12 +203,15 @@ def mean_field(
     if summation not in ("blas", "sequential"):
         raise ValueError(f"summation must be 'blas' or 'sequential' (got {summation!r})")
     sequential = summation == "sequential"
-    u_all = payoffs.unary
     w_all = payoffs.pair
-    amask_all = payoffs.action_mask
-    b, k_vars, a = u_all.shape
-    dt = u_all.dtype
+    b, k_vars, a = payoffs.unary.shape
+    dt = payoffs.unary.dtype
     beta_t = dt.type(beta)
+    var_mask = payoffs.mask[:, :, None]
+    # β·U with -inf at invalid actions: the softmax gives them exactly 0. A padded variable
+    # keeps action 0 finite so that its (unused) softmax stays finite; it is zeroed on output.
+    logits_all = np.where(payoffs.action_mask, beta_t * payoffs.unary, dt.type(-np.inf))
+    logits_all[:, :, 0] = np.where(payoffs.mask, logits_all[:, :, 0], 0.0)
 
     out_q = np.zeros((b, k_vars, a), dtype=dt)
     out_it = np.zeros(b, dtype=np.int64)
@@ -188,22 +220,22 @@ def mean_field(
 
     # Working set: rows still running. Stopped rows are written out and later compacted away.
     rows = np.arange(b)
-    u, w, amask = u_all, w_all, amask_all
-    q = masked_softmax(beta_t * u, amask).astype(dt, copy=False)
+    logits, w = logits_all, w_all
+    q = _softmax(logits.copy())
     running = np.ones(b, dtype=bool)
     for it in range(1, int(max_iter) + 1):
         q_old = q.copy()
         nw = q.shape[0]
         for k in range(k_vars):
-            field = u[:, k]
+            z = logits[:, k].copy()
             if w is not None:
-                field = field + _pair_field(w, q, k, sequential)
-            q[:, k] = masked_softmax(beta_t * field, amask[:, k])
+                z += beta_t * _pair_field(w, q, k, sequential)
+            q[:, k] = _softmax(z)
         kl = _kl(q_old, q)
         stop = running & ((kl < delta) | (it == max_iter))
         if stop.any():
             idx = rows[stop]
-            out_q[idx] = q[stop]
+            out_q[idx] = q[stop] * var_mask[idx]
             out_it[idx] = it
             out_conv[idx] = kl[stop] < delta
             out_kl[idx] = kl[stop]
@@ -211,8 +243,11 @@ def mean_field(
         n_run = int(running.sum())
         if n_run == 0:
             break
-        if n_run < 0.75 * nw:
-            rows, u, amask, q = rows[running], u[running], amask[running], q[running]
+        # Compact once half the working set has stopped: the copy of the pairwise table is
+        # then at most half its size (a stopped game left in the set is updated in vain, its
+        # result already written out).
+        if n_run < 0.5 * nw:
+            rows, logits, q = rows[running], logits[running], q[running]
             w = None if w is None else w[running]
             running = np.ones(n_run, dtype=bool)
     return MeanFieldResult(out_q, out_it, out_conv, out_kl)

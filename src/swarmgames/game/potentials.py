@@ -35,7 +35,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.batch import LocalGameBatch, _freeze_arrays
 
 __all__ = [
     "FunctionPotentials",
@@ -106,6 +106,11 @@ class TablePotentials:
     ----------
     unary_table : ndarray, shape (B, K, A)
     pairwise_table : ndarray, shape (B, K, K, A, A), optional
+
+    Notes
+    -----
+    The tables belong to one batch: pair a sub-batch ``batch.select(g)`` with
+    ``potentials.select(g)``.
     """
 
     unary_table: np.ndarray
@@ -148,6 +153,9 @@ class GamePayoffs:
     mask: np.ndarray
     owner: np.ndarray
     members: np.ndarray
+
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
 
     @property
     def shape(self) -> tuple[int, int, int]:

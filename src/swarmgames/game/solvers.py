@@ -11,11 +11,11 @@ Solvers (``name``):
 ``no_virtual_mean``   the same on games with the reported states unchanged (paper's comparison).
 ``exact``             the M-maximising profile by enumeration (small neighbourhoods).
 ``best_response``     best-response dynamics from the unary argmax.
-``centralised``       mean-field over the whole swarm as one game (see :func:`solve_stage`).
+``centralised``       mean-field over the whole swarm as one game (see ``stage.solve_stage``).
 ``random``            a uniformly random valid action.
 
-:func:`solve_stage` is what a simulation loop calls once per control period: it builds the
-games from the routing tables and returns one action per robot.
+:func:`swarmgames.game.stage.solve_stage` is what a simulation loop calls once per control
+period: it builds the games from the routing tables and returns one action per robot.
 
 References
 ----------
@@ -26,18 +26,15 @@ References
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
-from typing import Literal
+from dataclasses import dataclass
+from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
 
-from swarmgames.game.actions import ActionModel
 from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
-from swarmgames.game.batch import LocalGameBatch
-from swarmgames.game.local import centralised_game, local_games
+from swarmgames.game.batch import LocalGameBatch, _freeze_arrays
 from swarmgames.game.meanfield import check_parameters, mean_field
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
-from swarmgames.network.topology import TopologySnapshot
 
 __all__ = [
     "SOLVERS",
@@ -46,10 +43,10 @@ __all__ = [
     "GameSolution",
     "MeanFieldSolver",
     "RandomSolver",
-    "StageSolution",
+    "Solver",
     "make_solver",
     "normalise_rng",
-    "solve_stage",
+    "sample_actions",
 ]
 
 SOLVERS = ("mean_field", "no_virtual_mean", "exact", "best_response", "centralised", "random")
@@ -60,6 +57,22 @@ def normalise_rng(seed: int | np.random.Generator | None) -> np.random.Generator
     if isinstance(seed, np.random.Generator):
         return seed
     return np.random.default_rng(seed)
+
+
+def sample_actions(
+    marginals: np.ndarray,
+    action_mask: np.ndarray,
+    fallback: np.ndarray,
+    rng: int | np.random.Generator | None,
+) -> np.ndarray:
+    """One draw per row from ``marginals`` ``(M, A)`` (inverse CDF, one uniform per row, in
+    row order); ``fallback`` where rounding lands on an invalid action."""
+    gen = normalise_rng(rng)
+    draw = gen.random(marginals.shape[0])
+    cdf = np.cumsum(marginals, axis=1)
+    pick = np.minimum((cdf < draw[:, None]).sum(axis=1), marginals.shape[1] - 1)
+    ok = action_mask[np.arange(marginals.shape[0]), pick]
+    return np.where(ok, pick, fallback)
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,10 +111,60 @@ class GameSolution:
     solve_time_s: float
     eval_time_s: float = 0.0
 
+    def __post_init__(self) -> None:
+        _freeze_arrays(self)
+
     @property
     def n_games(self) -> int:
         """B."""
         return int(self.owner.size)
+
+    def select(self, games) -> GameSolution:
+        """The solution of a subset of games (indices or boolean mask over B)."""
+        idx = np.arange(self.n_games)[games]
+        return GameSolution(
+            solver=self.solver,
+            owner=self.owner[idx],
+            actions=self.actions[idx],
+            profile=self.profile[idx],
+            marginals=self.marginals[idx],
+            iterations=self.iterations[idx],
+            converged=self.converged[idx],
+            kl=self.kl[idx],
+            solve_time_s=self.solve_time_s,
+            eval_time_s=self.eval_time_s,
+        )
+
+    @classmethod
+    def concat(cls, solutions) -> GameSolution:
+        """The games of ``solutions`` in order, padded to the widest K and A; times add up."""
+        solutions = list(solutions)
+        if not solutions:
+            raise ValueError("solutions must not be empty")
+        k = max(s.profile.shape[1] for s in solutions)
+        a = max(s.marginals.shape[2] for s in solutions)
+        return cls(
+            solver=solutions[0].solver,
+            owner=np.concatenate([s.owner for s in solutions]),
+            actions=np.concatenate([s.actions for s in solutions]),
+            profile=np.concatenate(
+                [np.pad(s.profile, ((0, 0), (0, k - s.profile.shape[1]))) for s in solutions]
+            ),
+            marginals=np.concatenate(
+                [
+                    np.pad(
+                        s.marginals,
+                        ((0, 0), (0, k - s.marginals.shape[1]), (0, a - s.marginals.shape[2])),
+                    )
+                    for s in solutions
+                ]
+            ),
+            iterations=np.concatenate([s.iterations for s in solutions]),
+            converged=np.concatenate([s.converged for s in solutions]),
+            kl=np.concatenate([s.kl for s in solutions]),
+            solve_time_s=sum(s.solve_time_s for s in solutions),
+            eval_time_s=sum(s.eval_time_s for s in solutions),
+        )
 
     def to_frame(self):
         """One row per game: owner, action, iterations, converged, kl (pandas DataFrame)."""
@@ -140,11 +203,50 @@ def _pure_solution(name, payoffs, profile, iterations, converged, t0, marginals=
     )
 
 
+@runtime_checkable
+class Solver(Protocol):
+    """What every solver offers (the object :func:`make_solver` returns).
+
+    Attributes
+    ----------
+    name : str
+        Registry name (one of :data:`SOLVERS`).
+    virtual_mean : bool
+        Whether stage solving builds the games with virtual means (eq. 3).
+    buckets : int
+        Default number of size buckets of stage solving (0 = automatic).
+    """
+
+    name: str
+    virtual_mean: bool
+    buckets: int
+
+    def evaluate(self, batch: LocalGameBatch, potentials: Potentials) -> GamePayoffs:
+        """Weighted payoff tables of ``batch``."""
+        ...
+
+    def solve(
+        self,
+        batch: LocalGameBatch,
+        potentials: Potentials,
+        rng: int | np.random.Generator | None = None,
+    ) -> GameSolution:
+        """Solve every game of ``batch``."""
+        ...
+
+    def solve_payoffs(
+        self, payoffs: GamePayoffs, rng: int | np.random.Generator | None = None
+    ) -> GameSolution:
+        """Solve every game of already evaluated tables."""
+        ...
+
+
 @dataclass(frozen=True)
 class _Base:
     alpha_a: float = 1.0
     alpha_b: float = 0.001
     dtype: str = "float64"
+    buckets: int = 0
 
     name = "base"
     virtual_mean = True
@@ -183,6 +285,8 @@ class MeanFieldSolver(_Base):
         Weights of eq. 1 (paper: 1, 0.001).
     dtype : {"float64", "float32"}
         Precision of the payoff tables and marginals.
+    buckets : int
+        Default size-bucket count of :func:`~swarmgames.game.stage.solve_stage` (0 = automatic).
     beta : float
         Inverse temperature, > 0.
     delta : float
@@ -192,9 +296,9 @@ class MeanFieldSolver(_Base):
     action_choice : {"argmax", "sample"}
         Owner's action: argmax of its marginal (ties to the lowest index) or a draw from it.
     virtual_mean : bool
-        Whether :func:`solve_stage` builds the games with virtual means (eq. 3).
+        Whether ``solve_stage`` builds the games with virtual means (eq. 3).
     centralised : bool
-        Whether :func:`solve_stage` solves the swarm as one game (centralised baseline).
+        Whether ``solve_stage`` solves the swarm as one game (centralised baseline).
     summation : {"blas", "sequential"}
         See :func:`~swarmgames.game.meanfield.mean_field`.
     """
@@ -230,12 +334,7 @@ class MeanFieldSolver(_Base):
         profile = np.where(payoffs.mask, masked.argmax(axis=2), 0)
         actions = profile[:, 0].copy()
         if self.action_choice == "sample":
-            gen = normalise_rng(rng)
-            draw = gen.random(q.shape[0])
-            cdf = np.cumsum(q[:, 0], axis=1)
-            pick = np.minimum((cdf < draw[:, None]).sum(axis=1), q.shape[2] - 1)
-            ok = payoffs.action_mask[np.arange(q.shape[0]), 0, pick]
-            actions = np.where(ok, pick, actions)
+            actions = sample_actions(q[:, 0], payoffs.action_mask[:, 0], actions, rng)
         return GameSolution(
             solver=self.name,
             owner=payoffs.owner,
@@ -298,14 +397,15 @@ class RandomSolver(_Base):
         )
 
 
-def make_solver(config) -> _Base:
+def make_solver(config) -> Solver:
     """The solver a :class:`~swarmgames.config.GameConfig` names, configured from it.
 
     Parameters
     ----------
     config : GameConfig
         Uses ``solver``, ``alpha_a``, ``alpha_b``, ``beta``, ``delta``, ``max_iter``,
-        ``action_choice``, ``virtual_mean``, ``precision`` and ``exact_max_profiles``.
+        ``action_choice``, ``virtual_mean``, ``precision``, ``exact_max_profiles`` and
+        ``buckets``.
 
     Returns
     -------
@@ -316,6 +416,7 @@ def make_solver(config) -> _Base:
         "alpha_a": config.alpha_a,
         "alpha_b": config.alpha_b,
         "dtype": getattr(config, "precision", "float64"),
+        "buckets": getattr(config, "buckets", 0),
     }
     if name in ("mean_field", "no_virtual_mean", "centralised"):
         return MeanFieldSolver(
@@ -334,82 +435,3 @@ def make_solver(config) -> _Base:
     if name == "random":
         return RandomSolver(**common)
     raise ValueError(f"solver must be one of {', '.join(SOLVERS)} (got {name!r})")
-
-
-@dataclass(frozen=True, eq=False)
-class StageSolution:
-    """One stage: every robot's action, plus the games and solution behind it.
-
-    Parameters
-    ----------
-    actions : ndarray of int, shape (N,)
-        Action index of every robot.
-    next_states : ndarray, shape (N, D)
-        Every robot's state after its action (from the action model, actual states).
-    batch : LocalGameBatch
-        The games solved (B = N local games, or one swarm-wide game for ``centralised``).
-    solution : GameSolution
-    build_time_s : float
-        Wall time of building the games, seconds.
-    """
-
-    actions: np.ndarray
-    next_states: np.ndarray
-    batch: LocalGameBatch
-    solution: GameSolution
-    build_time_s: float = field(default=0.0)
-
-
-def solve_stage(
-    solver: _Base,
-    snapshot: TopologySnapshot,
-    h: int,
-    states: np.ndarray,
-    action_model: ActionModel,
-    potentials: Potentials,
-    rng: int | np.random.Generator | None = None,
-) -> StageSolution:
-    """Decide every robot's action for one control period.
-
-    Builds each robot's local game from the routing tables (:func:`local_games`, with the
-    solver's ``virtual_mean``), or the swarm-wide game for the centralised solver, solves them
-    in one batch and returns one action per robot.
-
-    Parameters
-    ----------
-    solver : a solver from :func:`make_solver`
-    snapshot : TopologySnapshot
-    h : int
-        Neighbourhood radius in hops (paper: 2).
-    states : ndarray, shape (N, D)
-    action_model : ActionModel
-    potentials : Potentials
-    rng : int, Generator or None
-
-    Returns
-    -------
-    StageSolution
-    """
-    gen = normalise_rng(rng)
-    t0 = time.perf_counter()
-    states = np.asarray(states, dtype=float)
-    if getattr(solver, "centralised", False):
-        batch = centralised_game(snapshot, h, states, action_model)
-    else:
-        batch = local_games(
-            snapshot, h, states, action_model, virtual_mean=bool(solver.virtual_mean)
-        )
-    t_build = time.perf_counter() - t0
-    sol = solver.solve(batch, potentials, gen)
-    if getattr(solver, "centralised", False):
-        actions = sol.profile[0].copy()
-        if getattr(solver, "action_choice", "argmax") == "sample":
-            q = sol.marginals[0]
-            draw = gen.random(q.shape[0])
-            pick = np.minimum((np.cumsum(q, axis=1) < draw[:, None]).sum(axis=1), q.shape[1] - 1)
-            ok = batch.action_mask[0, np.arange(q.shape[0]), pick]
-            actions = np.where(ok, pick, actions)
-    else:
-        actions = sol.actions
-    nxt = np.asarray(action_model.apply(states))[np.arange(states.shape[0]), actions]
-    return StageSolution(actions, nxt, batch, sol, t_build)

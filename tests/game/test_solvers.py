@@ -1,0 +1,85 @@
+"""Tests of the solver registry and the stage entry point."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from swarmgames.config import GameConfig
+from swarmgames.game import (
+    SOLVERS,
+    DisplacementActions,
+    FunctionPotentials,
+    GameSolution,
+    MeanFieldSolver,
+    Solver,
+    make_solver,
+    solve_stage,
+)
+from tests.game.helpers import disk_snapshot, random_games
+
+MODEL = DisplacementActions.headings(5.0, 8, lower=[0.0, 0.0], upper=[200.0, 200.0])
+POT = FunctionPotentials(
+    lambda s: -np.linalg.norm(s - 100.0, axis=-1) / 50.0,
+    lambda s, t: -np.exp(-np.linalg.norm(s - t, axis=-1) / 20.0),
+)
+
+
+def _swarm(n=12, seed=0):
+    pos = np.random.default_rng(seed).uniform(0, 200, size=(n, 2))
+    return pos, disk_snapshot(pos, 70.0)
+
+
+@pytest.mark.parametrize("name", SOLVERS)
+def test_every_solver_returns_a_valid_action_per_robot(name):
+    pos, snap = _swarm(8)
+    cfg = GameConfig(solver=name, alpha_b=0.5, beta=20.0, exact_max_profiles=10**7)
+    solver = make_solver(cfg)
+    assert solver.name == name and isinstance(solver, Solver)
+    out = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=0)
+    assert out.actions.shape == (8,)
+    valid = MODEL.valid(pos)
+    assert np.all(valid[np.arange(8), out.actions])
+    np.testing.assert_allclose(out.next_states, MODEL.apply(pos)[np.arange(8), out.actions])
+    sol = out.solution
+    assert isinstance(sol, GameSolution) and sol.solve_time_s >= 0
+    assert sol.to_frame().shape[0] == out.batch.n_games
+    if name == "centralised":
+        assert out.batch.n_games == 1 and out.batch.n_vars == 8
+    else:
+        assert out.batch.n_games == 8
+        if name == "no_virtual_mean":
+            assert not out.batch.is_virtual.any()
+
+
+def test_sampled_actions_are_reproducible_and_follow_the_marginal():
+    batch, pot = random_games(0, 400, 3, 4, ragged=False)
+    solver = MeanFieldSolver(alpha_b=0.0, beta=1.0, action_choice="sample")
+    a1 = solver.solve(batch, pot, rng=5)
+    a2 = solver.solve(batch, pot, rng=np.random.default_rng(5))
+    np.testing.assert_array_equal(a1.actions, a2.actions)
+    # With one game repeated, the draws follow Q_owner (chi-square style tolerance).
+    one = batch.select([0] * 4000)
+    sol = solver.solve(one, pot.select([0] * 4000), rng=1)
+    freq = np.bincount(sol.actions, minlength=4) / 4000
+    np.testing.assert_allclose(freq, sol.marginals[0, 0], atol=0.04)
+
+
+def test_solver_parameters_are_validated():
+    with pytest.raises(ValueError, match=r"beta must be > 0 and finite \(got 0.0\)"):
+        MeanFieldSolver(beta=0.0)
+    with pytest.raises(ValueError, match=r"delta must be > 0"):
+        MeanFieldSolver(delta=-1.0)
+    with pytest.raises(ValueError, match=r"action_choice must be 'argmax' or 'sample'"):
+        MeanFieldSolver(action_choice="mode")  # type: ignore[arg-type]
+
+
+def test_config_rejects_unknown_solver_and_bad_values():
+    from swarmgames.errors import ConfigError
+
+    with pytest.raises((ConfigError, ValueError)):
+        GameConfig(solver="annealing")  # type: ignore[arg-type]
+    with pytest.raises((ConfigError, ValueError)):
+        GameConfig(beta=0.0)
+    with pytest.raises((ConfigError, ValueError)):
+        GameConfig(delta=0.0)

@@ -1,0 +1,102 @@
+"""Tests of one stage: games from the routing tables, solved, one action per robot."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from swarmgames.config import GameConfig
+from swarmgames.game import (
+    DisplacementActions,
+    FunctionPotentials,
+    MeanFieldSolver,
+    evaluate_payoffs,
+    global_regret,
+    local_games,
+    local_regret,
+    make_solver,
+    solve_stage,
+    stage_regret,
+)
+from tests.game.helpers import disk_snapshot
+
+MODEL = DisplacementActions.headings(5.0, 8, lower=[0.0, 0.0], upper=[200.0, 200.0])
+POT = FunctionPotentials(
+    lambda s: -np.linalg.norm(s - 100.0, axis=-1) / 50.0,
+    lambda s, t: -np.exp(-np.linalg.norm(s - t, axis=-1) / 20.0),
+)
+
+
+def _swarm(n=12, seed=0):
+    pos = np.random.default_rng(seed).uniform(0, 200, size=(n, 2))
+    return pos, disk_snapshot(pos, 70.0)
+
+
+def test_virtual_mean_switch_changes_the_games():
+    pos, snap = _swarm(15, 1)
+    with_v = solve_stage(make_solver(GameConfig(solver="mean_field")), snap, 1, pos, MODEL, POT)
+    without = solve_stage(
+        make_solver(GameConfig(solver="no_virtual_mean")), snap, 1, pos, MODEL, POT
+    )
+    assert with_v.batch.is_virtual.any() and not without.batch.is_virtual.any()
+    off = make_solver(GameConfig(solver="mean_field", virtual_mean=False))
+    assert not off.virtual_mean
+
+
+def test_low_temperature_stage_profiles_are_local_equilibria():
+    pos, snap = _swarm(20, 2)
+    solver = make_solver(GameConfig(beta=1e4, delta=1e-12, max_iter=500, alpha_b=0.5))
+    out = solve_stage(solver, snap, 2, pos, MODEL, POT)
+    pay = solver.evaluate(out.batch, POT)
+    assert np.mean(local_regret(pay, out.solution.profile) <= 1e-9) >= 0.95
+
+
+def test_global_regret_of_a_stage_is_non_negative():
+    pos, snap = _swarm(10, 3)
+    true = evaluate_payoffs(local_games(snap, 1, pos, MODEL, virtual_mean=False), POT, 1.0, 0.5)
+    out = solve_stage(make_solver(GameConfig(alpha_b=0.5)), snap, 1, pos, MODEL, POT)
+    regret = global_regret(true, out.actions)
+    assert np.all(regret >= 0)
+    np.testing.assert_array_equal(
+        stage_regret(snap, 1, pos, MODEL, POT, out.actions, 1.0, 0.5), regret
+    )
+
+
+def test_isolated_robot_stage():
+    pos = np.array([[10.0, 10.0], [190.0, 190.0]])
+    out = solve_stage(make_solver(GameConfig()), disk_snapshot(pos, 20.0), 2, pos, MODEL, POT)
+    assert out.batch.n_vars == 1 and out.solution.converged.all()
+    # Each isolated robot moves towards (100, 100): heading 45 degrees for robot 0.
+    assert out.actions[0] == 2 and out.actions[1] == 6
+
+
+@pytest.mark.parametrize("buckets", [2, 3, 50])
+def test_buckets_give_the_same_stage_as_one_batch(buckets):
+    # Sequential summation is bit-identical whatever the padded width (meanfield docstring).
+    pos, snap = _swarm(25, 4)
+    solver = MeanFieldSolver(alpha_b=0.5, beta=20.0, summation="sequential")
+    one = solve_stage(solver, snap, 2, pos, MODEL, POT)
+    many = solve_stage(solver, snap, 2, pos, MODEL, POT, buckets=buckets)
+    np.testing.assert_array_equal(many.actions, one.actions)
+    np.testing.assert_array_equal(many.batch.owner, np.arange(25))
+    k = one.batch.n_vars
+    np.testing.assert_array_equal(many.batch.members[:, :k], one.batch.members)
+    np.testing.assert_array_equal(many.solution.marginals[:, :k], one.solution.marginals)
+    np.testing.assert_array_equal(many.solution.iterations, one.solution.iterations)
+
+
+def test_buckets_must_be_a_positive_integer():
+    pos, snap = _swarm(3)
+    with pytest.raises(ValueError, match=r"buckets must be an integer >= 0 \(got -1\)"):
+        solve_stage(make_solver(GameConfig()), snap, 2, pos, MODEL, POT, buckets=-1)
+
+
+def test_centralised_sampled_actions_are_valid_and_reproducible():
+    pos, snap = _swarm(10, 5)
+    solver = make_solver(GameConfig(solver="centralised", action_choice="sample", beta=1.0))
+    a = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=3)
+    b = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=3)
+    np.testing.assert_array_equal(a.actions, b.actions)
+    assert np.all(MODEL.valid(pos)[np.arange(10), a.actions])
+    # At beta = 1 the marginals are spread out: sampling differs from the argmax somewhere.
+    assert np.any(a.actions != a.solution.profile[0])
