@@ -94,6 +94,7 @@ def test_run_folder_outputs(tmp_path):
         {"solver": "centralised"},
         {"solver": "random"},
         {"solver": "mean_field", "action_choice": "sample"},
+        {"solver": "centralised", "action_choice": "sample"},
     ],
 )
 def test_solvers_selectable(game):

@@ -36,6 +36,7 @@ from swarmgames.game import (
     make_solver,
     profile_payoff,
 )
+from swarmgames.game.solvers import sample_actions
 from swarmgames.sim.lloyd import lloyd_actions
 
 __all__ = ["Decision", "GameController", "LloydController"]
@@ -141,6 +142,8 @@ class GameController(_Measured):
             integ_s = time.perf_counter() - t0
             sol = self._solve(pay, rng)
             actions = np.asarray(sol.profile[0], dtype=np.int64)
+            if self.cfg.game.action_choice == "sample":
+                actions = sample_actions(sol.marginals[0], batch.action_mask[0], actions, rng)
             payoff, lreg, greg = self._true_measures(snapshot, positions, actions)
             _, pay_local, _ = self._games(snapshot, positions, virtual_mean=False)
             neigh = _scatter(pay_local.owner, np.asarray(pay_local.mask).sum(axis=1) - 1, n)
