@@ -185,3 +185,24 @@ def test_exact_solver_on_too_large_game_says_why():
 def test_config_type_checked():
     with pytest.raises(TypeError, match="config must be a ScenarioConfig"):
         run({"swarm": {}}, progress=False)
+
+
+@pytest.mark.parametrize("backend", ["olsr", "oracle", "disk", "knn"])
+def test_network_backends_selectable(backend):
+    cfg = _cfg({"swarm": {"n_robots": 4}, "network": {"backend": backend, "knn_k": 2}})
+    res = run(cfg, progress=False)
+    assert res.summary["network"] == backend
+    assert len(res.to_frame()) == 6
+
+
+def test_partitioned_swarm_with_disk_backend():
+    # disk radius 30 m and take-off spread 300 m: the swarm starts in several components
+    cfg = _cfg(
+        {
+            "swarm": {"n_robots": 5, "start_radius_m": 300.0},
+            "network": {"backend": "disk", "disk_radius_m": 30.0},
+        }
+    )
+    res = run(cfg, progress=False)
+    assert res.to_frame()["components"].iloc[0] >= 3
+    assert (res.to_frame("metrics")["neighbours"] == 0).any()
