@@ -281,6 +281,14 @@ class CoverageConfig(_Section):
         gt=0,
         description="Signal model reference distance d0; shorter distances are clamped, metres.",
     )
+    softness_db: float = Field(
+        1.0,
+        ge=0,
+        description=(
+            "Temperature of the smooth maximum tau*ln(e^(a/tau) + e^(b/tau)) used for eq. 4's "
+            "max; not in the paper (0 = the hard max), dB."
+        ),
+    )
     separation_m: float = Field(
         50.0,
         ge=0,

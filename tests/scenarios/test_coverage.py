@@ -166,3 +166,23 @@ def test_move_cost_and_crowding_penalty(small):
         np.testing.assert_allclose(diff[0, k], crowd + moved, atol=1e-9)
     # moving away from the neighbour (heading 180 degrees for robot 0) is penalised least
     assert np.argmin(diff[0, 0, 1:]) + 1 == 3  # 4 headings: 0, 90, 180, 270 degrees
+
+
+def test_smooth_maximum(small):
+    base, model = small
+    pot = CoveragePotentials(base.roi, base.signal, softness_db=2.0)
+    s = np.array([[[0.0, 0.0, 30.0], [60.0, 30.0, 30.0]]])
+    batch = _batch(s, [[True, True]], model)
+    u = pot.unary(batch)
+    pts, w = base.roi.points, base.roi.weights
+    for k, other in ((0, 1), (1, 0)):
+        f = base.signal.field(model.apply(s[0, k]), pts, np.float64)  # (A, G)
+        o = base.signal.field(s[0, other][None], pts, np.float64)[0]
+        smooth = 2.0 * np.logaddexp(f / 2.0, o / 2.0)  # tau ln(e^(a/tau) + e^(b/tau))
+        np.testing.assert_allclose(u[0, k], smooth @ w, atol=2e-3)
+    # never below the hard maximum, at most tau ln 2 above it
+    excess = u - base.unary(batch)
+    assert np.all(excess >= -1e-4) and np.all(excess <= 2.0 * np.log(2) * base.roi.mass + 1e-4)
+    # one robot: nothing to smooth against
+    one = _batch(s[:, :1], [[True]], model)
+    np.testing.assert_allclose(pot.unary(one), base.unary(one), atol=1e-6)

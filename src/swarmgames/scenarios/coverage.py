@@ -30,9 +30,16 @@ Computation (the cost is the unary's integral):
 * the ``(games, variables, actions, cells)`` tensor is processed in chunks of local games so
   memory stays bounded for large swarms.
 
-Two additions to the paper, both off when their weight is 0 (the defaults of
+Three additions to the paper, each off when its weight is 0 (the defaults of
 :class:`~swarmgames.config.CoverageConfig` switch them on, and ``docs/coverage.md`` shows
 what each one changes):
+
+Smooth maximum (``softness_db``): with the hard maximum of eq. 4 a robot whose signal is
+nowhere the best in its neighbourhood (inside a clump, behind others) gains nothing from any
+move, so it never leaves. :math:`\\tau \\ln(e^{a/\\tau} + e^{b/\\tau})` exceeds
+:math:`\\max\\{a, b\\}` by at most :math:`\\tau \\ln 2` (at a tie) and by almost nothing
+once the two differ by a few :math:`\\tau`, yet gives such robots a gradient. The coverage
+*metric* keeps the hard maximum.
 
 Crowding penalty (``separation_m``, ``separation_cost_db``): robots that take off from one
 small area see almost the same neighbourhood, so eq. 4 gives them almost the same best move and
@@ -77,6 +84,10 @@ class CoveragePotentials:
         Region of interest and its integration grid.
     signal : SignalModel
         :math:`\\psi_R`.
+    softness_db : float, default 0.0
+        Temperature :math:`\\tau` (dB) of the smooth maximum that replaces
+        :math:`\\max\\{a, b\\}` in eq. 4 by :math:`\\tau \\ln(e^{a/\\tau} + e^{b/\\tau})`
+        (0 = the hard maximum). See the module notes.
     separation_m, separation_cost_db : float, default 0.0
         Crowding penalty: :math:`c_{sep} \\sum_g p(r_g) a^2 \\sum_{l \ne k}
         \\max(0, 1 - d(S_k(x_k), S_l) / d_{sep})^2` is subtracted from the unary (0 = off).
@@ -105,6 +116,7 @@ class CoveragePotentials:
     roi: GaussianROI
     signal: SignalModel = field(default_factory=SignalModel)
     move_cost_db: float = 0.0
+    softness_db: float = 0.0
     separation_m: float = 0.0
     separation_cost_db: float = 0.0
     chunk_elems: int = 4_000_000
@@ -122,6 +134,7 @@ class CoveragePotentials:
                 coverage.reference_distance_m,
             ),
             move_cost_db=coverage.move_cost_db,
+            softness_db=coverage.softness_db,
             separation_m=coverage.separation_m,
             separation_cost_db=coverage.separation_cost_db,
         )
@@ -177,6 +190,9 @@ class CoveragePotentials:
             f = fields[nxt_idx[lo:hi]]  # (b, K, A, G)
             o = other[:, :, None, :]
             val = np.maximum(f, o)
+            if self.softness_db > 0:
+                tau = np.float32(self.softness_db)
+                val += tau * np.log1p(np.exp(-np.abs(f - o) / tau))
             out[lo:hi] = val @ w
         if self.separation_m > 0 and self.separation_cost_db > 0:
             out -= self._crowding(mask, states, nxt)
