@@ -203,3 +203,37 @@ def test_partitioned_swarm_with_disk_backend():
     res = run(cfg, progress=False)
     assert res.to_frame()["components"].iloc[0] >= 3
     assert (res.to_frame("metrics")["neighbours"] == 0).any()
+
+
+class _CtrlCProvider(DiskOracle):
+    """Raises KeyboardInterrupt when asked to advance past ``stop_at`` (a user's Ctrl-C)."""
+
+    def __init__(self, stop_at):
+        super().__init__()
+        self.stop_at = stop_at
+
+    def advance(self, to_time, positions):
+        if to_time > self.stop_at:
+            raise KeyboardInterrupt
+        return super().advance(to_time, positions)
+
+
+def test_ctrl_c_writes_completed_stages(tmp_path):
+    cfg = _cfg({"sim": {"duration_s": 20.0, "animation": True, "animation_frames": 2}})
+    res = run(cfg, out=tmp_path / "r", progress=True, provider=_CtrlCProvider(5.5))
+    assert res.interrupted
+    # stages at t = 2, 3, 4 completed (the advance to 6 s was interrupted)
+    assert res.summary["stages"] == 3
+    swarm = pd.read_csv(tmp_path / "r" / "swarm.csv")
+    assert swarm["t"].tolist() == [2.0, 3.0, 4.0]
+    assert json.loads((tmp_path / "r" / "summary.json").read_text())["interrupted"] is True
+    assert not list((tmp_path / "r").glob(".*.tmp"))  # no half-written file
+
+
+def test_result_plots_and_summary_table(default_run):
+    from matplotlib.figure import Figure
+
+    assert isinstance(default_run.plot(), Figure)
+    assert isinstance(default_run.plot_paths(), Figure)
+    table = default_run.summary_table()
+    assert table.row_count == len(default_run.summary)
