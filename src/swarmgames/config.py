@@ -238,6 +238,20 @@ class SwarmConfig(_Section):
     n_headings: int = Field(
         8, ge=1, le=64, description="Number of headings of the move actions (plus 'stay')."
     )
+    action_set: Literal["headings", "acceleration"] = Field(
+        "headings",
+        description=(
+            "'headings': stay + n_headings moves of step_m; 'acceleration': (2 accel_levels "
+            "+ 1)^2 acceleration labels rolled forward over one period (the authors' flocking "
+            "controller), speed capped at max_speed_m_s."
+        ),
+    )
+    accel_step_m_s2: float = Field(
+        0.25, gt=0, description="Grid step of the acceleration labels, m/s^2."
+    )
+    accel_levels: int = Field(
+        2, ge=1, le=10, description="Acceleration levels on each side of zero (2: +-0.5 m/s^2)."
+    )
     max_speed_m_s: float = Field(
         15.0, gt=0, description="Speed limit; step_m / control_period_s may not exceed it, m/s."
     )

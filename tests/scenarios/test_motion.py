@@ -48,3 +48,35 @@ def test_arena_holds_roi_and_takeoff():
 def test_bad_parameters(kwargs, match):
     with pytest.raises(ValueError, match=match):
         HeadingActions(**kwargs)
+
+
+def test_acceleration_labels_of_the_authors_controller():
+    # REFERENCE.md section 5: 25 labels on a +-0.5 m/s^2 grid, step 0.25, over 1 s, |v| <= 1.
+    from swarmgames.scenarios import AccelerationActions
+
+    m = AccelerationActions(0.25, 2, 1.0, 1.0)
+    assert m.n_actions == 25
+    assert m.accels[0].tolist() == [0.0, 0.0]  # action 0 = no acceleration
+    assert sorted(set(m.accels[:, 0].tolist())) == [-0.5, -0.25, 0.0, 0.25, 0.5]
+    s = np.array([[0.0, 0.0, 30.0, 0.0, 0.0], [5.0, 5.0, 30.0, 0.9, 0.0]])
+    nxt = m.apply(s)
+    assert nxt.shape == (2, 25, 5)
+    # from rest: p' = a dt^2 / 2, v' = a dt
+    np.testing.assert_allclose(nxt[0, :, 3:5], m.accels)
+    np.testing.assert_allclose(nxt[0, :, 0:2], 0.5 * m.accels)
+    assert np.linalg.norm(nxt[1, :, 3:5], axis=1).max() <= 1.0 + 1e-12  # speed cap
+    np.testing.assert_array_equal(nxt[..., 2], 30.0)
+
+
+def test_acceleration_near_the_arena_edge_keeps_one_action():
+    from swarmgames.scenarios import AccelerationActions
+
+    m = AccelerationActions(0.25, 2, 1.0, 1.0, (-100.0, 100.0, -100.0, 100.0))
+    ok = m.valid(np.array([99.9, 0.0, 30.0, 1.0, 0.0]))
+    assert ok.sum() >= 1
+    best = np.argmax(ok)
+    assert m.accels[best, 0] == -0.5  # the hardest braking is the one left
+    with pytest.raises(ValueError, match="states must have 5 columns"):
+        m.apply(np.zeros(3))
+    with pytest.raises(ValueError, match=r"accel_step must be > 0 \(got 0.0\)"):
+        AccelerationActions(0.0)

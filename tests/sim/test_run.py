@@ -237,3 +237,19 @@ def test_result_plots_and_summary_table(default_run):
     assert isinstance(default_run.plot_paths(), Figure)
     table = default_run.summary_table()
     assert table.row_count == len(default_run.summary)
+
+
+def test_acceleration_action_set_runs():
+    cfg = _cfg(
+        {
+            "swarm": {"n_robots": 3, "action_set": "acceleration", "max_speed_m_s": 5.0},
+            "coverage": {"move_cost_db": 0.0},
+            "sim": {"duration_s": 10.0},
+        }
+    )
+    res = run(cfg, progress=False, provider=DiskOracle())
+    tr = res.to_frame("trajectory")
+    xy = tr[["x", "y"]].to_numpy().reshape(-1, 3, 2)
+    speed = np.linalg.norm(np.diff(xy, axis=0), axis=-1)
+    assert speed.max() <= 5.0 + 1e-9  # metres per 1 s period
+    assert res.swarm["coverage"].iloc[-1] > res.swarm["coverage"].iloc[0]

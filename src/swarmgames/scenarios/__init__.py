@@ -7,8 +7,15 @@ interest (:class:`GaussianROI`), the log-distance signal :math:`\\psi_R`
 """
 
 from swarmgames.scenarios.coverage import CoveragePotentials
-from swarmgames.scenarios.motion import HeadingActions, arena_for
+from swarmgames.scenarios.motion import AccelerationActions, HeadingActions, arena_for
 from swarmgames.scenarios.roi import GaussianROI
 from swarmgames.scenarios.signal import SignalModel
 
-__all__ = ["CoveragePotentials", "GaussianROI", "HeadingActions", "SignalModel", "arena_for"]
+__all__ = [
+    "AccelerationActions",
+    "CoveragePotentials",
+    "GaussianROI",
+    "HeadingActions",
+    "SignalModel",
+    "arena_for",
+]

@@ -141,8 +141,9 @@ class CoveragePotentials:
 
     # ------------------------------------------------------------------ mission metrics
     def best_signal(self, positions: np.ndarray) -> np.ndarray:
-        """Best signal over the swarm at every grid cell, dBm, shape (G,)."""
-        pos = np.asarray(positions, dtype=float).reshape(-1, 3)
+        """Best signal over the swarm at every grid cell, dBm, shape (G,); ``positions``
+        (N, >= 3), the first three columns (x, y, z) in metres."""
+        pos = np.asarray(positions, dtype=float)[..., :3].reshape(-1, 3)
         if pos.shape[0] == 0:
             raise ValueError("positions must hold at least one robot (got 0)")
         return self.signal.field(pos, self.roi.points).max(axis=0)

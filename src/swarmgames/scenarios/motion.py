@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["HeadingActions", "arena_for"]
+__all__ = ["AccelerationActions", "HeadingActions", "arena_for"]
 
 STAY = 0
 
@@ -112,6 +112,8 @@ class HeadingActions:
         """Build from a :class:`~swarmgames.config.SwarmConfig` and an arena."""
         return cls(swarm.step_m, swarm.n_headings, bounds)
 
+    state_dim = 3
+
 
 def arena_for(roi, start_center_m, start_radius_m: float, margin_m: float):
     """Arena box holding the ROI's bounding box and the take-off disc, plus a margin.
@@ -127,3 +129,104 @@ def arena_for(roi, start_center_m, start_radius_m: float, margin_m: float):
         min(ymin, cy - r) - margin_m,
         max(ymax, cy + r) + margin_m,
     )
+
+
+@dataclass(frozen=True, eq=False)
+class AccelerationActions:
+    """Acceleration labels on a square grid, rolled forward over one control period.
+
+    The alternative action set of the authors' mean-field flocking controller: each action is
+    a horizontal acceleration :math:`a = (a_x, a_y)` from the grid
+    :math:`\\{-m s, \\dots, 0, \\dots, m s\\}^2` (``s = accel_step``, ``m = n_levels``; the
+    authors used ±0.5 m/s² in steps of 0.25, 25 labels), applied for ``dt`` seconds:
+
+    .. math:: v' = \\mathrm{clip}(v + a\\, dt), \\qquad p' = p + \\tfrac12 (v + v')\\, dt,
+
+    where clip scales the velocity down to ``max_speed`` when it is faster. States are
+    ``(x, y, z, v_x, v_y)`` (metres, m/s). Validity follows :class:`HeadingActions`: the new
+    position must stay in the arena or, outside it, not get farther away; the action that
+    ends nearest the arena is always valid, so no robot is left without an action.
+
+    Parameters
+    ----------
+    accel_step : float
+        Grid step s of the accelerations, m/s² (> 0).
+    n_levels : int
+        Levels m on each side of zero (>= 1): (2 m + 1)² actions.
+    max_speed : float
+        Speed limit, m/s (> 0).
+    dt : float
+        Control period, s (> 0).
+    bounds : tuple of 4 floats, optional
+        Arena ``(xmin, xmax, ymin, ymax)``, metres.
+
+    References
+    ----------
+    .. [1] REFERENCE.md section 5: the authors' flocking controller, 25 acceleration labels on
+       a ±0.5 m/s² grid (step 0.25) rolled forward over 1 s with |v| < 1 m/s.
+
+    Examples
+    --------
+    >>> m = AccelerationActions(0.25, 2, 1.0, 1.0)
+    >>> m.n_actions
+    25
+    >>> m.apply(np.zeros(5))[0].tolist()
+    [0.0, 0.0, 0.0, 0.0, 0.0]
+    """
+
+    accel_step: float
+    n_levels: int = 2
+    max_speed: float = 1.0
+    dt: float = 1.0
+    bounds: tuple[float, float, float, float] | None = None
+    accels: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        for name in ("accel_step", "max_speed", "dt"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0 (got {getattr(self, name)})")
+        if int(self.n_levels) != self.n_levels or self.n_levels < 1:
+            raise ValueError(f"n_levels must be an integer >= 1 (got {self.n_levels})")
+        levels = self.accel_step * np.arange(-self.n_levels, self.n_levels + 1)
+        ax, ay = np.meshgrid(levels, levels, indexing="ij")
+        acc = np.column_stack([ax.ravel(), ay.ravel()])
+        zero = int(np.flatnonzero((acc == 0).all(axis=1))[0])
+        acc = np.vstack([acc[zero : zero + 1], np.delete(acc, zero, axis=0)])  # 0 = coast
+        acc.setflags(write=False)
+        object.__setattr__(self, "accels", acc)
+        if self.bounds is not None:
+            HeadingActions(1.0, 1, self.bounds)  # same bounds check
+
+    state_dim = 5
+
+    @property
+    def n_actions(self) -> int:
+        """Number of actions A = (2 n_levels + 1)²."""
+        return int(self.accels.shape[0])
+
+    def apply(self, states: np.ndarray) -> np.ndarray:
+        """Next states ``(..., A, 5)`` for states ``(..., 5)`` = (x, y, z, v_x, v_y)."""
+        s = np.asarray(states, dtype=float)
+        if s.shape[-1] != 5:
+            raise ValueError(f"states must have 5 columns (x, y, z, vx, vy) (got {s.shape[-1]})")
+        v = s[..., None, 3:5]
+        v_new = v + self.accels * self.dt
+        speed = np.linalg.norm(v_new, axis=-1, keepdims=True)
+        v_new = v_new * np.minimum(1.0, self.max_speed / np.maximum(speed, 1e-300))
+        out = np.broadcast_to(s[..., None, :], (*s.shape[:-1], self.n_actions, 5)).copy()
+        out[..., 0:2] += 0.5 * (v + v_new) * self.dt
+        out[..., 3:5] = v_new
+        return out
+
+    def valid(self, states: np.ndarray) -> np.ndarray:
+        """Valid actions ``(..., A)``: see the class docstring."""
+        s = np.asarray(states, dtype=float)
+        shape = (*s.shape[:-1], self.n_actions)
+        if self.bounds is None:
+            return np.ones(shape, dtype=bool)
+        box = HeadingActions(1.0, 1, self.bounds)
+        now = box._outside(s[..., :2])[..., None]
+        nxt = box._outside(self.apply(s)[..., :2])
+        ok = nxt <= now + 1e-9
+        np.put_along_axis(ok, np.argmin(nxt, axis=-1)[..., None], True, axis=-1)
+        return ok

@@ -112,8 +112,9 @@ def run_stages(
         For the coverage metric.
     action_model : HeadingActions
         Maps the chosen action indices to next positions.
-    positions : ndarray, shape (N, 3)
-        Start positions, metres.
+    positions : ndarray, shape (N, D)
+        Start states; the first three columns are positions (x, y, z) in metres (the network
+        and the coverage metric see only those).
     progress : callable ``(done: int) -> None``, optional
         Called after every stage.
     """
@@ -126,8 +127,8 @@ def run_stages(
     t_start = time.perf_counter()
     rows = np.arange(n)
     try:
-        provider.reset(pos, 0.0)
-        snap = provider.advance(warmup_s, pos)
+        provider.reset(pos[:, :3], 0.0)
+        snap = provider.advance(warmup_s, pos[:, :3])
         for k in range(n_stages):
             t_stage = time.perf_counter()
             t = warmup_s + k * period_s
@@ -135,7 +136,7 @@ def run_stages(
             mean_h, max_h, n_comp, edges = swarm_graph_stats(snap)
             cov = potentials.coverage(pos)
             new_pos = action_model.apply(pos)[rows, dec.actions]
-            snap_next = provider.advance(t + period_s, new_pos)
+            snap_next = provider.advance(t + period_s, new_pos[:, :3])
             # A stage is recorded only once it is complete (Ctrl-C keeps whole stages).
             times.append(t)
             acts.append(np.asarray(dec.actions, dtype=np.int64))

@@ -57,8 +57,11 @@ def plot_timeseries(result) -> Figure:
     axs[1, 1].plot(sw["t"], sw["mean_hops"], label="mean hops")
     axs[1, 1].plot(sw["t"], sw["max_hops"], label="max hops")
     axs[1, 1].plot(sw["t"], sw["components"], label="components")
-    moving = result.trajectory.groupby("t")["action"].apply(lambda a: int((a > 0).sum()))
-    axs[1, 1].plot(moving.index, moving.values, label="moving robots", ls=":")
+    tr = result.trajectory
+    n = int(tr["robot"].max()) + 1
+    xyz = tr[["x", "y", "z"]].to_numpy().reshape(-1, n, 3)
+    moving = (np.linalg.norm(np.diff(xyz, axis=0), axis=-1) > 1e-6).sum(axis=1)
+    axs[1, 1].plot(tr["t"].to_numpy()[::n][:-1], moving, label="moving robots", ls=":")
     axs[1, 1].set_ylabel("network / motion")
     axs[1, 1].legend(fontsize="small")
     for ax in axs[1]:

@@ -63,7 +63,10 @@ def _swarm(log) -> pd.DataFrame:
 def summarise(log, config, wall_s: float) -> dict[str, Any]:
     """Headline numbers of a run (``summary.json``)."""
     s, n = log.actions.shape
-    moving = log.actions != 0
+    # A robot moves in a stage when its position changes (the action set may have several
+    # actions that keep it in place, or none: a coasting UAV still moves).
+    disp = np.linalg.norm(np.diff(log.positions[..., :3], axis=0), axis=-1)  # (S, N)
+    moving = disp > 1e-6
     any_moving = moving.any(axis=1)
     still_from = s - int(np.argmax(any_moving[::-1])) if any_moving.any() else 0
     if s and not any_moving.any():

@@ -17,7 +17,12 @@ import numpy as np
 
 from swarmgames.config import ScenarioConfig
 from swarmgames.errors import ConfigError
-from swarmgames.scenarios import CoveragePotentials, HeadingActions, arena_for
+from swarmgames.scenarios import (
+    AccelerationActions,
+    CoveragePotentials,
+    HeadingActions,
+    arena_for,
+)
 from swarmgames.sim.controllers import GameController, LloydController
 from swarmgames.sim.loop import run_stages, start_positions
 from swarmgames.sim.result import RunResult
@@ -36,7 +41,7 @@ def check_config(config: ScenarioConfig) -> None:
     """
     sw, sim = config.swarm, config.sim
     speed = sw.step_m / sim.control_period_s
-    if speed > sw.max_speed_m_s * (1 + 1e-12):
+    if sw.action_set == "headings" and speed > sw.max_speed_m_s * (1 + 1e-12):
         raise ConfigError(
             "swarm.step_m / sim.control_period_s must be <= swarm.max_speed_m_s "
             f"(got {sw.step_m} m / {sim.control_period_s} s = {speed:g} m/s > "
@@ -62,7 +67,17 @@ def build_mission(config: ScenarioConfig) -> tuple[Any, Any]:
         raise ConfigError(f"coverage: {exc}") from None
     sw = config.swarm
     bounds = arena_for(potentials.roi, sw.start_center_m, sw.start_radius_m, sw.arena_margin_m)
-    return potentials, HeadingActions.from_config(sw, bounds)
+    if sw.action_set == "acceleration":
+        model = AccelerationActions(
+            sw.accel_step_m_s2,
+            sw.accel_levels,
+            sw.max_speed_m_s,
+            config.sim.control_period_s,
+            bounds,
+        )
+    else:
+        model = HeadingActions.from_config(sw, bounds)
+    return potentials, model
 
 
 def run(
@@ -118,6 +133,9 @@ def run(
     positions = start_positions(
         sw.n_robots, sw.start_center_m, sw.start_radius_m, sw.altitude_m, rng_start
     )
+    if getattr(model, "state_dim", 3) > 3:  # velocity states start at rest
+        extra = np.zeros((sw.n_robots, model.state_dim - 3))
+        positions = np.hstack([positions, extra])
     if provider is None:
         from swarmgames.network.factory import make_provider
 
