@@ -84,32 +84,62 @@ def compute_routes(
     all_h = np.concatenate(hops)[order]
     all_n = np.concatenate(nexts)[order]
     if tp_owner is not None and tp_owner.size and all_k.size:
-        tp_o = tp_owner.astype(np.int64)
-        kd = tp_o * n + tp_dest
-        kl = tp_o * n + tp_last
-        valid = tp_dest != tp_owner
-        kd, kl = kd[valid], kl[valid]
-        h = 2
-        while max_hops is None or h < max_hops:
-            idx = np.minimum(np.searchsorted(all_k, kl), all_k.size - 1)
-            at_h = (all_k[idx] == kl) & (all_h[idx] == h)
-            if not at_h.any():
-                break
-            pos = np.searchsorted(all_k, kd)
-            known = (pos < all_k.size) & (all_k[np.minimum(pos, all_k.size - 1)] == kd)
-            new = at_h & ~known
-            if not new.any():
-                break
-            nk, nn = _first_per_key(kd[new], all_n[idx[new]])
-            all_k = np.concatenate([all_k, nk])
-            order = np.argsort(all_k)
-            all_k = all_k[order]
-            all_h = np.concatenate([all_h, np.full(nk.size, h + 1, dtype=np.int16)])[order]
-            all_n = np.concatenate([all_n, nn])[order]
-            h += 1
+        all_k, all_h, all_n = _topology_routes(
+            n, all_k, all_h, all_n, tp_owner, tp_dest, tp_last, max_hops
+        )
     return (
         (all_k // n).astype(np.int32),
         (all_k % n).astype(np.int32),
         all_h,
         all_n.astype(np.int32),
+    )
+
+
+def _topology_routes(n, all_k, all_h, all_n, tp_owner, tp_dest, tp_last, max_hops):
+    """RFC 10 step 3, level by level: only topology tuples whose ``last`` was routed at the
+    previous level are examined, so the cost is linear in the number of tuples."""
+    tp_o = tp_owner.astype(np.int64)
+    valid = tp_dest != tp_owner
+    kl = (tp_o * n + tp_last)[valid]
+    kd = (tp_o * n + tp_dest)[valid]
+    order = np.argsort(kl, kind="stable")
+    kl, kd = kl[order], kd[order]
+    # Routed destinations, kept sorted for membership tests.
+    known = all_k
+    frontier = all_k[all_h == 2]
+    frontier_next = all_n[all_h == 2]
+    new_k, new_h, new_n = [], [], []
+    h = 2
+    while frontier.size and (max_hops is None or h < max_hops):
+        lo = np.searchsorted(kl, frontier, "left")
+        hi = np.searchsorted(kl, frontier, "right")
+        counts = hi - lo
+        total = int(counts.sum())
+        if total == 0:
+            break
+        src = np.repeat(np.arange(frontier.size), counts)
+        pos = (
+            np.repeat(lo, counts) + np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
+        )
+        cand = kd[pos]
+        cand_next = frontier_next[src]
+        idx = np.minimum(np.searchsorted(known, cand), known.size - 1)
+        fresh = known[idx] != cand
+        if not fresh.any():
+            break
+        cand, cand_next = _first_per_key(cand[fresh], cand_next[fresh])
+        new_k.append(cand)
+        new_h.append(np.full(cand.size, h + 1, dtype=np.int16))
+        new_n.append(cand_next)
+        known = np.union1d(known, cand)
+        frontier, frontier_next = cand, cand_next
+        h += 1
+    if not new_k:
+        return all_k, all_h, all_n
+    all_k = np.concatenate([all_k, *new_k])
+    order = np.argsort(all_k, kind="stable")
+    return (
+        all_k[order],
+        np.concatenate([all_h, *new_h])[order],
+        np.concatenate([all_n, *new_n])[order],
     )

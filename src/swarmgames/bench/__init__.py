@@ -1,0 +1,1 @@
+"""Benchmarks: functions returning plain dict records (timing lives here, never in tests)."""
