@@ -22,7 +22,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["compute_routes"]
+from swarmgames.network.olsr.tables import KeySet
+
+__all__ = ["TupleTopology", "compute_routes"]
 
 
 def _first_per_key(keys: np.ndarray, *cols: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -37,9 +39,7 @@ def compute_routes(
     th_owner: np.ndarray,
     th_neigh: np.ndarray,
     th_two_hop: np.ndarray,
-    tp_owner: np.ndarray | None = None,
-    tp_dest: np.ndarray | None = None,
-    tp_last: np.ndarray | None = None,
+    topology=None,
     max_hops: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every node's routing table.
@@ -52,8 +52,9 @@ def compute_routes(
         Valid symmetric links ``(r, j)``.
     th_owner, th_neigh, th_two_hop : ndarray of int
         Valid 2-hop tuples ``(r, j, x)`` (``j`` a symmetric neighbour of ``r``).
-    tp_owner, tp_dest, tp_last : ndarray of int, optional
-        Valid topology tuples held by ``r``: ``dest`` is reachable from ``last`` in one hop.
+    topology : TupleTopology or object with ``advertised(keys)``, optional
+        Valid topology tuples: ``advertised(owner * N + last)`` returns, for each tuple of
+        ``owner`` with that ``last``, the index of the key and the tuple's ``dest``.
     max_hops : int, optional
         Stop the iteration at this hop count.
 
@@ -83,10 +84,8 @@ def compute_routes(
     all_k = all_k[order]
     all_h = np.concatenate(hops)[order]
     all_n = np.concatenate(nexts)[order]
-    if tp_owner is not None and tp_owner.size and all_k.size:
-        all_k, all_h, all_n = _topology_routes(
-            n, all_k, all_h, all_n, tp_owner, tp_dest, tp_last, max_hops
-        )
+    if topology is not None and all_k.size:
+        all_k, all_h, all_n = _topology_routes(n, all_k, all_h, all_n, topology, max_hops)
     return (
         (all_k // n).astype(np.int32),
         (all_k % n).astype(np.int32),
@@ -95,43 +94,56 @@ def compute_routes(
     )
 
 
-def _topology_routes(n, all_k, all_h, all_n, tp_owner, tp_dest, tp_last, max_hops):
+class TupleTopology:
+    """Topology tuples given as flat arrays ``(owner, dest, last)``: ``owner`` knows that
+    ``dest`` is one hop from ``last``."""
+
+    def __init__(self, n_nodes: int, owner: np.ndarray, dest: np.ndarray, last: np.ndarray):
+        n = np.int64(n_nodes)
+        valid = dest != owner
+        kl = (owner.astype(np.int64) * n + last)[valid]
+        order = np.argsort(kl, kind="stable")
+        self.kl = kl[order]
+        self.dest = np.asarray(dest, dtype=np.int64)[valid][order]
+
+    def advertised(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For owner/last keys ``owner * N + last``: index into ``keys`` and destination of
+        every matching tuple."""
+        lo = np.searchsorted(self.kl, keys, "left")
+        hi = np.searchsorted(self.kl, keys, "right")
+        counts = hi - lo
+        total = int(counts.sum())
+        src = np.repeat(np.arange(keys.size), counts)
+        pos = (
+            np.repeat(lo, counts) + np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
+        )
+        return src, self.dest[pos]
+
+
+def _topology_routes(n, all_k, all_h, all_n, topology, max_hops):
     """RFC 10 step 3, level by level: only topology tuples whose ``last`` was routed at the
-    previous level are examined, so the cost is linear in the number of tuples."""
-    tp_o = tp_owner.astype(np.int64)
-    valid = tp_dest != tp_owner
-    kl = (tp_o * n + tp_last)[valid]
-    kd = (tp_o * n + tp_dest)[valid]
-    order = np.argsort(kl, kind="stable")
-    kl, kd = kl[order], kd[order]
-    # Routed destinations, kept sorted for membership tests.
-    known = all_k
+    previous level are examined, so the cost is linear in the number of tuples used."""
+    known = KeySet(int(n * n))
+    known.add(all_k)
     frontier = all_k[all_h == 2]
     frontier_next = all_n[all_h == 2]
     new_k, new_h, new_n = [], [], []
     h = 2
     while frontier.size and (max_hops is None or h < max_hops):
-        lo = np.searchsorted(kl, frontier, "left")
-        hi = np.searchsorted(kl, frontier, "right")
-        counts = hi - lo
-        total = int(counts.sum())
-        if total == 0:
+        src, dest = topology.advertised(frontier)
+        if src.size == 0:
             break
-        src = np.repeat(np.arange(frontier.size), counts)
-        pos = (
-            np.repeat(lo, counts) + np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
-        )
-        cand = kd[pos]
+        owner = frontier[src] // n
+        cand = owner * n + dest
         cand_next = frontier_next[src]
-        idx = np.minimum(np.searchsorted(known, cand), known.size - 1)
-        fresh = known[idx] != cand
+        fresh = (dest != owner) & ~known.contains(cand)
         if not fresh.any():
             break
         cand, cand_next = _first_per_key(cand[fresh], cand_next[fresh])
         new_k.append(cand)
         new_h.append(np.full(cand.size, h + 1, dtype=np.int16))
         new_n.append(cand_next)
-        known = np.union1d(known, cand)
+        known.add(cand)
         frontier, frontier_next = cand, cand_next
         h += 1
     if not new_k:
