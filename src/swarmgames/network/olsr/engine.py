@@ -340,7 +340,7 @@ class OlsrEngine:
             heard_t.append(t)
             li, lf = self._lookup(sym_keys, r * n + f)
             ok = lf.copy()
-            ok[lf] = sym_t[li[lf]] >= t[lf]
+            ok[lf] = sym_t[li[lf]] >= b  # link state as of the build time
             ok &= r != m
             mk = m * n + r
             ok &= ~reached.contains(mk)
