@@ -189,7 +189,7 @@ def test_bad_arguments():
     with pytest.raises(ValueError, match="must have 2 rows"):
         p.advance(1.0, np.zeros((3, 3)))
     p.advance(2.0, NEAR)
-    with pytest.raises(ValueError, match="to_time must be >= the current time 2.0"):
+    with pytest.raises(ValueError, match=r"to_time must be >= the current time 2\.0"):
         p.advance(1.0, NEAR)
     with pytest.raises(TypeError, match="seed must be"):
         OlsrProvider(2, seed="x")
