@@ -193,3 +193,25 @@ def test_bad_arguments():
         p.advance(1.0, NEAR)
     with pytest.raises(TypeError, match="seed must be"):
         OlsrProvider(2, seed="x")
+
+
+def test_sparse_and_dense_state_agree(monkeypatch):
+    # Two implementations that must agree: dense per-pair arrays (small swarms) and sorted
+    # sparse keys (used when N^2 exceeds DENSE_LIMIT, e.g. 10 000 robots).
+    from swarmgames.network.olsr import tables
+
+    rng = np.random.default_rng(11)
+    pos = np.c_[rng.uniform(0, 2000, (30, 2)), np.zeros(30)]
+
+    def run():
+        p = OlsrProvider(30, seed=5)
+        p.reset(pos)
+        return [p.advance(t, pos + 3.0 * t) for t in (5.0, 12.5, 30.0)]
+
+    dense = run()
+    monkeypatch.setattr(tables, "DENSE_LIMIT", 0)
+    sparse = run()
+    for a, b in zip(dense, sparse, strict=True):
+        assert a.n_entries > 0
+        assert np.array_equal(a.owner, b.owner) and np.array_equal(a.dest, b.dest)
+        assert np.array_equal(a.hops, b.hops) and np.array_equal(a.next_hop, b.next_hop)

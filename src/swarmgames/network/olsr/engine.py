@@ -48,6 +48,7 @@ import numpy as np
 
 from swarmgames.config import OlsrConfig
 from swarmgames.network.links import LinkGraph
+from swarmgames.network.olsr import tables
 from swarmgames.network.olsr.mpr import select_mprs
 from swarmgames.network.olsr.routing import compute_routes
 from swarmgames.network.olsr.tables import KeyedTable, KeySet
@@ -389,15 +390,24 @@ class _RoundTopology:
         self.round = table.cols["round"][ok].astype(np.int64)
         self.rounds = engine._tc_rounds
         self.n = n
+        self.dense = None
+        if n * n <= tables.DENSE_LIMIT:
+            self.dense = np.full(int(n * n), -1, dtype=np.int64)
+            self.dense[self.keys] = self.round
 
     def advertised(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         n = self.n
-        idx = np.searchsorted(self.keys, keys)
-        found = idx < self.keys.size
-        found[found] = self.keys[idx[found]] == keys[found]
+        if self.dense is not None:
+            rid = self.dense[keys]
+            hit = np.flatnonzero(rid >= 0)
+            rid = rid[hit]
+        else:
+            idx = np.searchsorted(self.keys, keys)
+            found = idx < self.keys.size
+            found[found] = self.keys[idx[found]] == keys[found]
+            hit = np.flatnonzero(found)
+            rid = self.round[idx[hit]]
         src_all, dest_all = [], []
-        hit = np.flatnonzero(found)
-        rid = self.round[idx[hit]]
         for r in np.unique(rid):
             sel = hit[rid == r]
             content, ptr = self.rounds[int(r)]

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from swarmgames.network.olsr import tables
 from swarmgames.network.olsr.tables import KeySet
 
 __all__ = ["TupleTopology", "compute_routes"]
@@ -123,6 +124,8 @@ class TupleTopology:
 def _topology_routes(n, all_k, all_h, all_n, topology, max_hops):
     """RFC 10 step 3, level by level: only topology tuples whose ``last`` was routed at the
     previous level are examined, so the cost is linear in the number of tuples used."""
+    if n * n <= tables.DENSE_LIMIT:
+        return _topology_routes_dense(n, all_k, all_h, all_n, topology, max_hops)
     known = KeySet(int(n * n))
     known.add(all_k)
     frontier = all_k[all_h == 2]
@@ -155,3 +158,36 @@ def _topology_routes(n, all_k, all_h, all_n, topology, max_hops):
         np.concatenate([all_h, *new_h])[order],
         np.concatenate([all_n, *new_n])[order],
     )
+
+
+def _topology_routes_dense(n, all_k, all_h, all_n, topology, max_hops):
+    """Same as :func:`_topology_routes` with dense (N * N) hop / next-hop arrays: membership
+    and first-candidate-wins are then O(1) per candidate and the output comes out sorted."""
+    size = int(n * n)
+    hop = np.zeros(size, dtype=np.int16)
+    nxt = np.full(size, -1, dtype=np.int64)
+    hop[all_k] = all_h
+    nxt[all_k] = all_n
+    claim = np.empty(size, dtype=np.int64)
+    frontier = all_k[all_h == 2]
+    h = 2
+    while frontier.size and (max_hops is None or h < max_hops):
+        src, dest = topology.advertised(frontier)
+        if src.size == 0:
+            break
+        owner = frontier[src] // n
+        cand = owner * n + dest
+        fresh = (dest != owner) & (hop[cand] == 0)
+        cand, src = cand[fresh], src[fresh]
+        if cand.size == 0:
+            break
+        idx = np.arange(cand.size)
+        claim[cand[::-1]] = idx[::-1]
+        first = claim[cand] == idx
+        cand, src = cand[first], src[first]
+        hop[cand] = h + 1
+        nxt[cand] = nxt[frontier[src]]
+        frontier = cand
+        h += 1
+    keys = np.flatnonzero(hop)
+    return keys.astype(np.int64), hop[keys], nxt[keys]

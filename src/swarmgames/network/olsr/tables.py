@@ -11,7 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["KeyedTable"]
+__all__ = ["DENSE_LIMIT", "KeySet", "KeyedTable"]
+
+#: Largest key range (N * N) for which dense per-pair arrays are used instead of sorted keys.
+DENSE_LIMIT = 25_000_000
 
 
 class KeyedTable:
@@ -86,8 +89,8 @@ class KeySet:
     """A growing set of ``int64`` keys in ``[0, size)``: a dense flag array when ``size`` is at
     most ``dense_limit`` (fast membership), sorted keys otherwise (memory ~ number of keys)."""
 
-    def __init__(self, size: int, dense_limit: int = 25_000_000) -> None:
-        self.dense = size <= dense_limit
+    def __init__(self, size: int, dense_limit: int | None = None) -> None:
+        self.dense = size <= (DENSE_LIMIT if dense_limit is None else dense_limit)
         self._flags = np.zeros(int(size), dtype=bool) if self.dense else None
         self._keys = np.zeros(0, dtype=np.int64)
 
