@@ -12,7 +12,8 @@ state and their receptions commute: a round is processed as one batch of sparse 
 
 * link set ``(r, j)``: ``L_ASYM_time``, ``L_SYM_time``, ``L_time`` and the time first heard;
 * 2-hop set ``(r, j, x)`` and MPR-selector set ``(r, j)``: expiry times;
-* topology set ``(r, last, dest)``: expiry time.
+* topology set: for each ``(r, last)`` the TC round last received from ``last`` and its expiry
+  (the tuples ``(dest, last)`` are that TC's advertised set, stored once per round).
 
 Link sensing (RFC 7.1.1): a HELLO from ``j`` sets ``L_ASYM_time = t + V``; if it lists ``r`` as
 a symmetric or asymmetric link, ``L_SYM_time = t + V`` and ``L_time = L_SYM_time + V``; listed as
@@ -47,9 +48,10 @@ import numpy as np
 
 from swarmgames.config import OlsrConfig
 from swarmgames.network.links import LinkGraph
+from swarmgames.network.olsr import tables
 from swarmgames.network.olsr.mpr import select_mprs
 from swarmgames.network.olsr.routing import compute_routes
-from swarmgames.network.olsr.tables import KeyedTable
+from swarmgames.network.olsr.tables import KeyedTable, KeySet
 
 __all__ = ["OlsrEngine"]
 
@@ -102,7 +104,7 @@ class OlsrEngine:
         self.links = KeyedTable(("asym", "sym", "ltime", "created"))
         self.two_hop = KeyedTable(("expiry",))
         self.selectors = KeyedTable(("expiry",))
-        self.topology = KeyedTable(("expiry",))
+        self.topology = KeyedTable(("expiry", "round"))
         self.last_rx = np.full(n, -np.inf)
         self.next_hello = float(start_time)
         self.next_tc = float(start_time)
@@ -167,6 +169,7 @@ class OlsrEngine:
         for table in (self.two_hop, self.selectors, self.topology):
             table.keep(table.cols["expiry"] >= t)
         live = set(np.unique(self._q_round).tolist())
+        live |= set(np.unique(self.topology.cols["round"]).astype(int).tolist())
         self._tc_rounds = {k: v for k, v in self._tc_rounds.items() if k in live}
 
     # ------------------------------------------------------------------ state views
@@ -207,12 +210,7 @@ class OlsrEngine:
         s_owner, s_neigh, _, t_owner, t_neigh, t_x = self._valid(clock)
         tp = None
         if not self.hello_only and len(self.topology):
-            n = self._nn
-            tk = self.topology.keys
-            o = tk // (n * n)
-            ok = self.topology.cols["expiry"] > clock[o]
-            rest = tk[ok] % (n * n)
-            tp = (o[ok], rest % n, rest // n)
+            tp = _RoundTopology(self, clock)
         if self.hello_only:
             max_hops = 2 if max_hops is None else min(max_hops, 2)
         return compute_routes(
@@ -222,7 +220,7 @@ class OlsrEngine:
             t_owner,
             t_neigh,
             t_x,
-            *(tp if tp is not None else (None, None, None)),
+            tp,
             max_hops=max_hops,
         )
 
@@ -331,7 +329,8 @@ class OlsrEngine:
         msg = origins.astype(np.int64)
         fwd = origins.astype(np.int64)
         t_send = b + self._jitter(origins.size)
-        reached = msg * n + msg
+        reached = KeySet(int(n * n))
+        reached.add(msg * n + msg)
         out_r, out_o, out_t = [], [], []
         heard_r, heard_t = [], []
         while msg.size:
@@ -342,10 +341,10 @@ class OlsrEngine:
             heard_t.append(t)
             li, lf = self._lookup(sym_keys, r * n + f)
             ok = lf.copy()
-            ok[lf] = sym_t[li[lf]] >= t[lf]
+            ok[lf] = sym_t[li[lf]] >= b  # link state as of the build time
             ok &= r != m
             mk = m * n + r
-            ok &= ~np.isin(mk, reached)
+            ok &= ~reached.contains(mk)
             if not ok.any():
                 break
             mk, r, f, t, m = mk[ok], r[ok], f[ok], t[ok], m[ok]
@@ -353,7 +352,7 @@ class OlsrEngine:
             keep = np.r_[True, mk[first][1:] != mk[first][:-1]]
             sel = first[keep]
             mk, r, f, t, m = mk[sel], r[sel], f[sel], t[sel], m[sel]
-            reached = np.union1d(reached, mk)
+            reached.add(mk)
             out_r.append(r)
             out_o.append(m)
             out_t.append(t)
@@ -375,8 +374,47 @@ class OlsrEngine:
         for rid in np.unique(rounds):
             sel = rounds == rid
             rr, oo, tt = r[sel], o[sel], t[sel]
-            keys, ptr = self._tc_rounds[int(rid)]
-            self.topology.drop_prefixes(rr * n + oo, n)
-            cpos, cidx = _csr_gather(ptr, oo)
-            a = keys[cpos] % n
-            self.topology.upsert((rr[cidx] * n + oo[cidx]) * n + a, expiry=tt[cidx] + hold)
+            # Replaces whatever r held from o (RFC 9.5: older ANSN tuples are removed).
+            self.topology.upsert(rr * n + oo, expiry=tt + hold, round=float(rid))
+
+
+class _RoundTopology:
+    """Topology tuples of every node, as the TC round each ``(r, last)`` holds (see
+    :func:`~.routing.compute_routes`)."""
+
+    def __init__(self, engine: OlsrEngine, clock: np.ndarray) -> None:
+        n = engine._nn
+        table = engine.topology
+        ok = table.cols["expiry"] > clock[table.keys // n]
+        self.keys = table.keys[ok]
+        self.round = table.cols["round"][ok].astype(np.int64)
+        self.rounds = engine._tc_rounds
+        self.n = n
+        self.dense = None
+        if n * n <= tables.DENSE_LIMIT:
+            self.dense = np.full(int(n * n), -1, dtype=np.int64)
+            self.dense[self.keys] = self.round
+
+    def advertised(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        n = self.n
+        if self.dense is not None:
+            rid = self.dense[keys]
+            hit = np.flatnonzero(rid >= 0)
+            rid = rid[hit]
+        else:
+            idx = np.searchsorted(self.keys, keys)
+            found = idx < self.keys.size
+            found[found] = self.keys[idx[found]] == keys[found]
+            hit = np.flatnonzero(found)
+            rid = self.round[idx[hit]]
+        src_all, dest_all = [], []
+        for r in np.unique(rid):
+            sel = hit[rid == r]
+            content, ptr = self.rounds[int(r)]
+            pos, k = _csr_gather(ptr, keys[sel] % n)
+            src_all.append(sel[k])
+            dest_all.append(content[pos] % n)
+        if not src_all:
+            e = np.zeros(0, dtype=np.int64)
+            return e, e
+        return np.concatenate(src_all), np.concatenate(dest_all)

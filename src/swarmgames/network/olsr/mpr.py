@@ -40,6 +40,7 @@ def select_mprs(
     neigh: np.ndarray,
     two_hop: np.ndarray,
     willingness: int = 3,
+    sym_willingness: np.ndarray | None = None,
 ) -> np.ndarray:
     """MPR sets of every node.
 
@@ -56,6 +57,9 @@ def select_mprs(
         ``j``; ``x`` is neither ``r`` nor a symmetric neighbour of ``r``.
     willingness : int
         Willingness of every node (0 never, 3 default, 7 always).
+    sym_willingness : ndarray of int, shape (S,), optional
+        Willingness advertised by each neighbour ``j`` of the pair ``(r, j)``; overrides
+        ``willingness`` (as in ns-3's MPR unit test, where neighbours differ).
 
     Returns
     -------
@@ -71,26 +75,35 @@ def select_mprs(
     [1, 7]
     """
     n = np.int64(n_nodes)
-    if willingness == WILL_NEVER:
-        return np.zeros(0, dtype=np.int64)
-    if willingness == WILL_ALWAYS:
-        return np.unique(sym_owner.astype(np.int64) * n + sym_neigh)
-    if owner.size == 0:
-        return np.zeros(0, dtype=np.int64)
+    sym_keys = sym_owner.astype(np.int64) * n + sym_neigh
+    will = (
+        np.full(sym_keys.size, willingness, dtype=np.int64)
+        if sym_willingness is None
+        else np.asarray(sym_willingness, dtype=np.int64)
+    )
+    # Step 1: WILL_ALWAYS neighbours. WILL_NEVER neighbours are not in N at all.
+    always = np.unique(sym_keys[will == WILL_ALWAYS])
     rj = owner.astype(np.int64) * n + neigh
+    srt = np.argsort(sym_keys)
+    sym_sorted = sym_keys[srt]
+    pos = np.minimum(np.searchsorted(sym_sorted, rj), max(sym_sorted.size - 1, 0))
+    known = (sym_sorted.size > 0) & (sym_sorted[pos] == rj) if rj.size else np.zeros(0, bool)
+    trip_will = np.where(known, will[srt][pos] if sym_sorted.size else 0, 0)
+    keep = trip_will != WILL_NEVER
+    owner, neigh, two_hop, rj = owner[keep], neigh[keep], two_hop[keep], rj[keep]
+    if owner.size == 0:
+        return always
     rx = owner.astype(np.int64) * n + two_hop
     rj_u, rj_inv = np.unique(rj, return_inverse=True)
     rx_u, rx_inv = np.unique(rx, return_inverse=True)
     # Step 2: sole routes.
     routes_per_rx = np.bincount(rx_inv, minlength=rx_u.size)
-    is_mpr = np.zeros(rj_u.size, dtype=bool)
+    is_mpr = np.isin(rj_u, always)
     is_mpr[rj_inv[routes_per_rx[rx_inv] == 1]] = True
-    # Tie-break order of each candidate (r, j): first heard.
-    sym_keys = sym_owner.astype(np.int64) * n + sym_neigh
-    order_idx = np.searchsorted(sym_keys[np.argsort(sym_keys)], rj_u)
-    order = np.asarray(sym_order, dtype=float)[np.argsort(sym_keys)][
-        np.minimum(order_idx, max(sym_keys.size - 1, 0))
-    ]
+    # Tie-break order of each candidate (r, j): first heard; and its willingness.
+    idx = np.minimum(np.searchsorted(sym_sorted, rj_u), sym_sorted.size - 1)
+    order = np.asarray(sym_order, dtype=float)[srt][idx]
+    cand_will = will[srt][idx]
     cand_owner = rj_u // n
     while True:
         covered = np.zeros(rx_u.size, dtype=bool)
@@ -101,8 +114,10 @@ def select_mprs(
         reach = np.bincount(rj_inv[uncovered], minlength=rj_u.size)
         live = reach > 0
         cand = np.flatnonzero(live)
-        # Per owner: max reachability, then first heard, then lowest index.
-        pick = np.lexsort((rj_u[cand], order[cand], -reach[cand], cand_owner[cand]))
+        # Per owner: max willingness, then max reachability, then first heard.
+        pick = np.lexsort(
+            (rj_u[cand], order[cand], -reach[cand], -cand_will[cand], cand_owner[cand])
+        )
         first = np.r_[True, cand_owner[cand[pick]][1:] != cand_owner[cand[pick]][:-1]]
         is_mpr[cand[pick][first]] = True
-    return rj_u[is_mpr]
+    return np.union1d(rj_u[is_mpr], always)

@@ -22,7 +22,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["compute_routes"]
+from swarmgames.network.olsr import tables
+from swarmgames.network.olsr.tables import KeySet
+
+__all__ = ["TupleTopology", "compute_routes"]
 
 
 def _first_per_key(keys: np.ndarray, *cols: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -37,9 +40,7 @@ def compute_routes(
     th_owner: np.ndarray,
     th_neigh: np.ndarray,
     th_two_hop: np.ndarray,
-    tp_owner: np.ndarray | None = None,
-    tp_dest: np.ndarray | None = None,
-    tp_last: np.ndarray | None = None,
+    topology=None,
     max_hops: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every node's routing table.
@@ -52,8 +53,9 @@ def compute_routes(
         Valid symmetric links ``(r, j)``.
     th_owner, th_neigh, th_two_hop : ndarray of int
         Valid 2-hop tuples ``(r, j, x)`` (``j`` a symmetric neighbour of ``r``).
-    tp_owner, tp_dest, tp_last : ndarray of int, optional
-        Valid topology tuples held by ``r``: ``dest`` is reachable from ``last`` in one hop.
+    topology : TupleTopology or object with ``advertised(keys)``, optional
+        Valid topology tuples: ``advertised(owner * N + last)`` returns, for each tuple of
+        ``owner`` with that ``last``, the index of the key and the tuple's ``dest``.
     max_hops : int, optional
         Stop the iteration at this hop count.
 
@@ -83,33 +85,109 @@ def compute_routes(
     all_k = all_k[order]
     all_h = np.concatenate(hops)[order]
     all_n = np.concatenate(nexts)[order]
-    if tp_owner is not None and tp_owner.size and all_k.size:
-        tp_o = tp_owner.astype(np.int64)
-        kd = tp_o * n + tp_dest
-        kl = tp_o * n + tp_last
-        valid = tp_dest != tp_owner
-        kd, kl = kd[valid], kl[valid]
-        h = 2
-        while max_hops is None or h < max_hops:
-            idx = np.minimum(np.searchsorted(all_k, kl), all_k.size - 1)
-            at_h = (all_k[idx] == kl) & (all_h[idx] == h)
-            if not at_h.any():
-                break
-            pos = np.searchsorted(all_k, kd)
-            known = (pos < all_k.size) & (all_k[np.minimum(pos, all_k.size - 1)] == kd)
-            new = at_h & ~known
-            if not new.any():
-                break
-            nk, nn = _first_per_key(kd[new], all_n[idx[new]])
-            all_k = np.concatenate([all_k, nk])
-            order = np.argsort(all_k)
-            all_k = all_k[order]
-            all_h = np.concatenate([all_h, np.full(nk.size, h + 1, dtype=np.int16)])[order]
-            all_n = np.concatenate([all_n, nn])[order]
-            h += 1
+    if topology is not None and all_k.size:
+        all_k, all_h, all_n = _topology_routes(n, all_k, all_h, all_n, topology, max_hops)
     return (
         (all_k // n).astype(np.int32),
         (all_k % n).astype(np.int32),
         all_h,
         all_n.astype(np.int32),
     )
+
+
+class TupleTopology:
+    """Topology tuples given as flat arrays ``(owner, dest, last)``: ``owner`` knows that
+    ``dest`` is one hop from ``last``."""
+
+    def __init__(self, n_nodes: int, owner: np.ndarray, dest: np.ndarray, last: np.ndarray):
+        n = np.int64(n_nodes)
+        valid = dest != owner
+        kl = (owner.astype(np.int64) * n + last)[valid]
+        order = np.argsort(kl, kind="stable")
+        self.kl = kl[order]
+        self.dest = np.asarray(dest, dtype=np.int64)[valid][order]
+
+    def advertised(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For owner/last keys ``owner * N + last``: index into ``keys`` and destination of
+        every matching tuple."""
+        lo = np.searchsorted(self.kl, keys, "left")
+        hi = np.searchsorted(self.kl, keys, "right")
+        counts = hi - lo
+        total = int(counts.sum())
+        src = np.repeat(np.arange(keys.size), counts)
+        pos = (
+            np.repeat(lo, counts) + np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
+        )
+        return src, self.dest[pos]
+
+
+def _topology_routes(n, all_k, all_h, all_n, topology, max_hops):
+    """RFC 10 step 3, level by level: only topology tuples whose ``last`` was routed at the
+    previous level are examined, so the cost is linear in the number of tuples used."""
+    if n * n <= tables.DENSE_LIMIT:
+        return _topology_routes_dense(n, all_k, all_h, all_n, topology, max_hops)
+    known = KeySet(int(n * n))
+    known.add(all_k)
+    frontier = all_k[all_h == 2]
+    frontier_next = all_n[all_h == 2]
+    new_k, new_h, new_n = [], [], []
+    h = 2
+    while frontier.size and (max_hops is None or h < max_hops):
+        src, dest = topology.advertised(frontier)
+        if src.size == 0:
+            break
+        owner = frontier[src] // n
+        cand = owner * n + dest
+        cand_next = frontier_next[src]
+        fresh = (dest != owner) & ~known.contains(cand)
+        if not fresh.any():
+            break
+        cand, cand_next = _first_per_key(cand[fresh], cand_next[fresh])
+        new_k.append(cand)
+        new_h.append(np.full(cand.size, h + 1, dtype=np.int16))
+        new_n.append(cand_next)
+        known.add(cand)
+        frontier, frontier_next = cand, cand_next
+        h += 1
+    if not new_k:
+        return all_k, all_h, all_n
+    all_k = np.concatenate([all_k, *new_k])
+    order = np.argsort(all_k, kind="stable")
+    return (
+        all_k[order],
+        np.concatenate([all_h, *new_h])[order],
+        np.concatenate([all_n, *new_n])[order],
+    )
+
+
+def _topology_routes_dense(n, all_k, all_h, all_n, topology, max_hops):
+    """Same as :func:`_topology_routes` with dense (N * N) hop / next-hop arrays: membership
+    and first-candidate-wins are then O(1) per candidate and the output comes out sorted."""
+    size = int(n * n)
+    hop = np.zeros(size, dtype=np.int16)
+    nxt = np.full(size, -1, dtype=np.int64)
+    hop[all_k] = all_h
+    nxt[all_k] = all_n
+    claim = np.empty(size, dtype=np.int64)
+    frontier = all_k[all_h == 2]
+    h = 2
+    while frontier.size and (max_hops is None or h < max_hops):
+        src, dest = topology.advertised(frontier)
+        if src.size == 0:
+            break
+        owner = frontier[src] // n
+        cand = owner * n + dest
+        fresh = (dest != owner) & (hop[cand] == 0)
+        cand, src = cand[fresh], src[fresh]
+        if cand.size == 0:
+            break
+        idx = np.arange(cand.size)
+        claim[cand[::-1]] = idx[::-1]
+        first = claim[cand] == idx
+        cand, src = cand[first], src[first]
+        hop[cand] = h + 1
+        nxt[cand] = nxt[frontier[src]]
+        frontier = cand
+        h += 1
+    keys = np.flatnonzero(hop)
+    return keys.astype(np.int64), hop[keys], nxt[keys]

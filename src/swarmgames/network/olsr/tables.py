@@ -11,7 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["KeyedTable"]
+__all__ = ["DENSE_LIMIT", "KeySet", "KeyedTable"]
+
+#: Largest key range (N * N) for which dense per-pair arrays are used instead of sorted keys.
+DENSE_LIMIT = 25_000_000
 
 
 class KeyedTable:
@@ -80,3 +83,29 @@ class KeyedTable:
         """Remove every tuple whose ``key // base`` is in ``prefixes``."""
         if self.keys.size and len(prefixes):
             self.keep(~np.isin(self.keys // base, prefixes))
+
+
+class KeySet:
+    """A growing set of ``int64`` keys in ``[0, size)``: a dense flag array when ``size`` is at
+    most ``dense_limit`` (fast membership), sorted keys otherwise (memory ~ number of keys)."""
+
+    def __init__(self, size: int, dense_limit: int | None = None) -> None:
+        self.dense = size <= (DENSE_LIMIT if dense_limit is None else dense_limit)
+        self._flags = np.zeros(int(size), dtype=bool) if self.dense else None
+        self._keys = np.zeros(0, dtype=np.int64)
+
+    def contains(self, keys: np.ndarray) -> np.ndarray:
+        """Boolean mask of the ``keys`` in the set."""
+        if self.dense:
+            return self._flags[keys]
+        if self._keys.size == 0:
+            return np.zeros(np.shape(keys), dtype=bool)
+        idx = np.minimum(np.searchsorted(self._keys, keys), self._keys.size - 1)
+        return self._keys[idx] == keys
+
+    def add(self, keys: np.ndarray) -> None:
+        """Add ``keys`` to the set."""
+        if self.dense:
+            self._flags[keys] = True
+        else:
+            self._keys = np.union1d(self._keys, keys)
