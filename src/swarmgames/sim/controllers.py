@@ -74,7 +74,6 @@ class _Measured:
     """Shared construction and measurement of the local games of a stage."""
 
     def __init__(self, config, potentials, action_model) -> None:
-
         self.cfg = config
         self.potentials = potentials
         self.model = action_model
@@ -84,7 +83,6 @@ class _Measured:
             raise ConfigError(f"game: {exc}") from None
 
     def _games(self, snapshot, positions, virtual_mean: bool):
-
         batch = local_games(
             snapshot, self.cfg.network.hops, positions, self.model, virtual_mean=virtual_mean
         )
@@ -106,7 +104,6 @@ class _Measured:
     def _true_measures(self, snapshot, positions, actions, pay_true=None):
         """Payoff, local and global regret of every robot's true local game (actual states,
         no virtual means) at the robots' actual actions."""
-
         if pay_true is None:
             _, pay_true, _ = self._games(snapshot, positions, virtual_mean=False)
         members = np.asarray(pay_true.members)
@@ -132,7 +129,6 @@ class GameController(_Measured):
     """
 
     def decide(self, snapshot, positions, rng) -> Decision:
-
         n = positions.shape[0]
         h = self.cfg.network.hops
         if getattr(self.solver, "centralised", False):
@@ -144,9 +140,9 @@ class GameController(_Measured):
             actions = np.asarray(sol.profile[0], dtype=np.int64)
             if self.cfg.game.action_choice == "sample":
                 actions = sample_actions(sol.marginals[0], batch.action_mask[0], actions, rng)
-            payoff, lreg, greg = self._true_measures(snapshot, positions, actions)
-            _, pay_local, _ = self._games(snapshot, positions, virtual_mean=False)
-            neigh = _scatter(pay_local.owner, np.asarray(pay_local.mask).sum(axis=1) - 1, n)
+            _, pay_true, _ = self._games(snapshot, positions, virtual_mean=False)
+            payoff, lreg, greg = self._true_measures(snapshot, positions, actions, pay_true)
+            neigh = _scatter(pay_true.owner, np.asarray(pay_true.mask).sum(axis=1) - 1, n)
             iters = np.full(n, int(sol.iterations[0]))
             conv = np.full(n, bool(sol.converged[0]))
             per_game = 1.0 / n
