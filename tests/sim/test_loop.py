@@ -124,3 +124,23 @@ def test_start_positions_in_takeoff_disc():
     r = np.hypot(pos[:, 0] - 10.0, pos[:, 1] + 5.0)
     assert r.max() <= 25.0
     assert r.mean() == pytest.approx(25.0 * 2 / 3, rel=0.05)  # uniform over the disc
+
+
+def test_colocated_start():
+    # Exactly co-located robots are indistinguishable to their local games: with the argmax
+    # they take the same action every stage and stay together; sampling the action from the
+    # marginal separates them. Both runs stay finite.
+    cfg = _cfg(swarm={"n_robots": 3, "start_radius_m": 0.0}, sim={"duration_s": 12.0})
+    together = run(cfg, progress=False, provider=DiskOracle())
+    xy = together.trajectory[["x", "y"]].to_numpy().reshape(-1, 3, 2)
+    np.testing.assert_allclose(xy[:, 1:], np.repeat(xy[:, :1], 2, axis=1))
+    cfg = _cfg(
+        swarm={"n_robots": 3, "start_radius_m": 0.0},
+        game={"action_choice": "sample"},
+        sim={"duration_s": 60.0},
+    )
+    apart = run(cfg, progress=False, provider=DiskOracle())
+    xy = apart.trajectory[["x", "y"]].to_numpy().reshape(-1, 3, 2)
+    assert np.ptp(xy[-1], axis=0).max() > 0
+    for res in (together, apart):
+        assert np.isfinite(res.metrics[["payoff", "local_regret", "global_regret"]]).all().all()
