@@ -360,6 +360,13 @@ class SimConfig(_Section):
             "coverage baseline (centralised positions, no game)."
         ),
     )
+    global_regret: bool = Field(
+        True,
+        description=(
+            "Measure every robot's stage-game regret (metrics.csv global_regret); with virtual "
+            "means on it costs a second payoff evaluation per stage."
+        ),
+    )
     animation: bool = Field(True, description="Write animation.gif of the swarm over the ROI.")
     animation_frames: int = Field(
         60, ge=2, le=1000, description="Maximum number of frames of the animation."

@@ -179,6 +179,13 @@ def test_exact_solver_on_too_large_game_says_why():
         )
 
 
+def test_global_regret_can_be_switched_off():
+    res = run(_cfg({"sim": {"global_regret": False}}), progress=False, provider=DiskOracle())
+    assert res.metrics["global_regret"].isna().all()
+    assert res.summary["median_global_regret"] is None
+    assert res.summary["median_local_regret"] is not None
+
+
 def test_config_type_checked():
     with pytest.raises(TypeError, match="config must be a ScenarioConfig"):
         run({"swarm": {}}, progress=False)

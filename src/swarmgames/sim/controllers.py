@@ -155,7 +155,10 @@ class GameController(_Measured):
             # The robot's own view: its local game at the profile it settled on.
             payoff = _scatter(owners, profile_payoff(pay, sol.profile), n)
             lreg = _scatter(owners, local_regret(pay, sol.profile), n)
-            greg = self._true_measures(snapshot, positions, actions, None if vm else pay)[2]
+            if self.cfg.sim.global_regret:
+                greg = self._true_measures(snapshot, positions, actions, None if vm else pay)[2]
+            else:
+                greg = np.full(n, np.nan)
             neigh = _scatter(owners, np.asarray(batch.mask).sum(axis=1) - 1, n)
             iters = _scatter(owners, np.asarray(sol.iterations), n)
             conv = _scatter(owners, np.asarray(sol.converged), n)

@@ -102,7 +102,9 @@ def summarise(log, config, wall_s: float) -> dict[str, Any]:
         "moving_robots_last_stage": int(moving[-1].sum()) if s else 0,
         "median_local_regret": float(np.median(lr)) if lr.size else None,
         "fraction_local_regret_zero": float(np.mean(lr <= 1e-9)) if lr.size else None,
-        "median_global_regret": float(np.median(gr)) if gr.size else None,
+        "median_global_regret": (
+            float(np.median(gr)) if gr.size and not np.isnan(gr).all() else None
+        ),
         "mean_hops_end": float(sw["mean_hops"][-1]) if s else None,
         "max_hops_end": int(sw["max_hops"][-1]) if s else None,
         "components_end": int(sw["components"][-1]) if s else None,
