@@ -216,30 +216,73 @@ class GameConfig(_Section):
 
 
 class SwarmConfig(_Section):
-    """The UAVs: number, start area, motion."""
+    """The UAVs: number, take-off area, motion.
+
+    Defaults where the paper is silent: 7 UAVs (the paper's largest swarm); flight at 30 m
+    (a typical low-altitude survey height, well below the 368.84 m radio range, so altitude
+    barely changes the links); all UAVs take off from one common disc of 25 m radius at the
+    edge of the ROI, so the swarm starts as a single-hop clique and its links break and form as
+    it spreads; 10 m moves per 1 s period (10 m/s, a small multirotor's cruise speed) along
+    8 headings plus "stay" (a 3 x 3 "king's move" set, as the authors' grid controllers).
+    """
 
     n_robots: int = Field(7, ge=1, le=100_000, description="Number of UAVs.")
     altitude_m: float = Field(30.0, ge=0, description="Flight altitude above ground, metres.")
     start_center_m: tuple[float, float] = Field(
-        (0.0, 0.0), description="Centre of the take-off area (x, y), metres."
+        (-300.0, 0.0), description="Centre of the common take-off area (x, y), metres."
     )
-    start_radius_m: float = Field(20.0, ge=0, description="Radius of the take-off disc, metres.")
+    start_radius_m: float = Field(
+        25.0, ge=0, description="Radius of the take-off disc, metres (uniform start positions)."
+    )
     step_m: float = Field(
         10.0, gt=0, description="Distance flown by one move action per control period, metres."
     )
     n_headings: int = Field(
         8, ge=1, le=64, description="Number of headings of the move actions (plus 'stay')."
     )
+    action_set: Literal["headings", "acceleration"] = Field(
+        "headings",
+        description=(
+            "'headings': stay + n_headings moves of step_m; 'acceleration': (2 accel_levels "
+            "+ 1)^2 acceleration labels rolled forward over one period (the authors' flocking "
+            "controller), speed capped at max_speed_m_s."
+        ),
+    )
+    accel_step_m_s2: float = Field(
+        0.25, gt=0, description="Grid step of the acceleration labels, m/s^2."
+    )
+    accel_levels: int = Field(
+        2, ge=1, le=10, description="Acceleration levels on each side of zero (2: +-0.5 m/s^2)."
+    )
+    max_speed_m_s: float = Field(
+        15.0, gt=0, description="Speed limit; step_m / control_period_s may not exceed it, m/s."
+    )
+    arena_margin_m: float = Field(
+        50.0,
+        ge=0,
+        description=(
+            "Margin of the arena box around the ROI and the take-off area; moves leaving the "
+            "arena are invalid, metres."
+        ),
+    )
 
 
 class CoverageConfig(_Section):
-    """Communication-aware coverage mission (paper section III, eqs. 4-5)."""
+    """Communication-aware coverage mission (paper section III, eqs. 4-5).
+
+    Defaults where the paper is silent: an isotropic Gaussian ROI with sigma = 250 m (its 95 %
+    ellipse has a 612 m radius, so 7 UAVs spread over it sit farther apart than one radio range
+    of 368.84 m end to end and the network is multi-hop); a 20 m integration grid (about 2 900
+    cells: payoff differences between 10 m moves are resolved while a stage stays fast); the
+    signal model uses ns-3's log-distance defaults (T0 = 16.0206 dBm, L0 = 46.6777 dB at 1 m,
+    n = 3), the exponent the authors' scripts used.
+    """
 
     roi_mean_m: tuple[float, float] = Field(
-        (600.0, 0.0), description="Mean of the Gaussian region of interest (x, y), metres."
+        (0.0, 0.0), description="Mean of the Gaussian region of interest (x, y), metres."
     )
     roi_cov_m2: tuple[tuple[float, float], tuple[float, float]] = Field(
-        ((40000.0, 0.0), (0.0, 40000.0)),
+        ((62500.0, 0.0), (0.0, 62500.0)),
         description="Covariance of the Gaussian region of interest, square metres.",
     )
     confidence: float = Field(
@@ -249,6 +292,43 @@ class CoverageConfig(_Section):
     t0_dbm: float = Field(16.0206, description="Signal model transmit power T0, dBm.")
     l0_db: float = Field(46.6777, description="Signal model reference loss L0, dB.")
     path_exponent: float = Field(3.0, gt=0, description="Signal model exponent n.")
+    reference_distance_m: float = Field(
+        1.0,
+        gt=0,
+        description="Signal model reference distance d0; shorter distances are clamped, metres.",
+    )
+    softness_db: float = Field(
+        1.0,
+        ge=0,
+        description=(
+            "Temperature of the smooth maximum tau*ln(e^(a/tau) + e^(b/tau)) used for eq. 4's "
+            "max; not in the paper (0 = the hard max), dB."
+        ),
+    )
+    separation_m: float = Field(
+        50.0,
+        ge=0,
+        description=(
+            "Distance below which a robot's next position is penalised for crowding another "
+            "robot (not in the paper; 0 = off), metres."
+        ),
+    )
+    separation_cost_db: float = Field(
+        0.1,
+        ge=0,
+        description=(
+            "Weight of the crowding penalty, dB of expected ROI signal at zero distance "
+            "(not in the paper; 0 = off), dB."
+        ),
+    )
+    move_cost_db: float = Field(
+        0.01,
+        ge=0,
+        description=(
+            "Cost of one move in the unary potential, dB of expected ROI signal; not in the "
+            "paper (0 = eq. 4 exactly); a small cost lets the swarm settle, dB."
+        ),
+    )
 
     @model_validator(mode="after")
     def _covariance_positive_definite(self) -> CoverageConfig:
@@ -261,14 +341,37 @@ class CoverageConfig(_Section):
 
 
 class SimConfig(_Section):
-    """The stage loop."""
+    """The stage loop.
+
+    Defaults where the paper is silent: 90 s of mission (the default swarm crosses the ROI
+    and settles well within it) after a 10 s network warm-up (OLSR needs two HELLO rounds,
+    about 2.5 s in ns-3, before the first 1-hop routes exist).
+    """
 
     control_period_s: float = Field(
         1.0, gt=0, description="Time between two stage games, seconds (paper: 1 Hz)."
     )
-    duration_s: float = Field(120.0, gt=0, description="Simulated mission time, seconds.")
+    duration_s: float = Field(90.0, gt=0, description="Simulated mission time, seconds.")
     warmup_s: float = Field(
         10.0, ge=0, description="Network time before the first stage (OLSR start-up), seconds."
+    )
+    controller: Literal["game", "lloyd"] = Field(
+        "game",
+        description=(
+            "'game': every robot solves its local graphical game; 'lloyd': Lloyd/Voronoi "
+            "coverage baseline (centralised positions, no game)."
+        ),
+    )
+    global_regret: bool = Field(
+        True,
+        description=(
+            "Measure every robot's stage-game regret (metrics.csv global_regret); with virtual "
+            "means on it costs a second payoff evaluation per stage."
+        ),
+    )
+    animation: bool = Field(True, description="Write animation.gif of the swarm over the ROI.")
+    animation_frames: int = Field(
+        60, ge=2, le=1000, description="Maximum number of frames of the animation."
     )
 
 

@@ -1,6 +1,31 @@
 """Network layer: radio propagation, link reception, OLSR routing, k-hop neighbourhoods."""
 
+from swarmgames.network.baselines import DiskProvider, KnnProvider
+from swarmgames.network.factory import BACKENDS, make_provider
+from swarmgames.network.links import LinkGraph, link_graph
+from swarmgames.network.olsr.provider import OlsrProvider
+from swarmgames.network.oracle import OracleProvider
+from swarmgames.network.propagation import PropagationModel, max_range
 from swarmgames.network.provider import NeighbourhoodProvider
+from swarmgames.network.replay import ReplayResult, replay
 from swarmgames.network.topology import TopologySnapshot
+from swarmgames.network.trace import PositionTrace, read_positions
 
-__all__ = ["NeighbourhoodProvider", "TopologySnapshot"]
+__all__ = [
+    "BACKENDS",
+    "DiskProvider",
+    "KnnProvider",
+    "LinkGraph",
+    "NeighbourhoodProvider",
+    "OlsrProvider",
+    "OracleProvider",
+    "PositionTrace",
+    "PropagationModel",
+    "ReplayResult",
+    "TopologySnapshot",
+    "link_graph",
+    "make_provider",
+    "max_range",
+    "read_positions",
+    "replay",
+]

@@ -1,1 +1,22 @@
-"""sim layer."""
+"""Simulation layer: the stage loop, controllers, run results and their files."""
+
+from swarmgames.sim.controllers import Decision, GameController, LloydController
+from swarmgames.sim.lloyd import lloyd_actions, voronoi_centroids
+from swarmgames.sim.loop import StageLog, run_stages, start_positions
+from swarmgames.sim.result import RunResult
+from swarmgames.sim.runner import build_mission, check_config, run
+
+__all__ = [
+    "Decision",
+    "GameController",
+    "LloydController",
+    "RunResult",
+    "StageLog",
+    "build_mission",
+    "check_config",
+    "lloyd_actions",
+    "run",
+    "run_stages",
+    "start_positions",
+    "voronoi_centroids",
+]

@@ -1,0 +1,85 @@
+"""Benchmarks of the network layer. Each function returns a plain ``dict`` record.
+
+Example::
+
+    from swarmgames.bench.network import bench_olsr_advance
+    bench_olsr_advance(1000, 60.0)            # TCs on, snapshot every simulated second
+    bench_olsr_advance(10_000, 60.0, hello_only=True)
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from swarmgames.network.olsr.provider import OlsrProvider
+from swarmgames.network.oracle import OracleProvider
+from swarmgames.network.validation import as_generator
+
+__all__ = ["bench_olsr_advance", "bench_oracle", "random_swarm"]
+
+
+def random_swarm(
+    n_nodes: int, mean_degree: float = 10.0, range_m: float = 368.84, seed=None
+) -> np.ndarray:
+    """Uniform random positions (N, 3) in a square sized so that the expected number of
+    neighbours within ``range_m`` is about ``mean_degree`` (z = 0)."""
+    rng = as_generator(seed)
+    side = np.sqrt(n_nodes * np.pi * range_m**2 / max(mean_degree, 1e-9))
+    return np.c_[rng.uniform(0, side, (n_nodes, 2)), np.zeros(n_nodes)]
+
+
+def bench_olsr_advance(
+    n_nodes: int,
+    sim_seconds: float = 60.0,
+    hello_only: bool = False,
+    seed: int = 0,
+    mean_degree: float = 10.0,
+    step_s: float = 1.0,
+    speed_mps: float = 5.0,
+) -> dict:
+    """Wall time of the OLSR provider over ``sim_seconds`` of simulated time.
+
+    The swarm (random square layout, about ``mean_degree`` neighbours each) drifts in random
+    directions at ``speed_mps``; positions change and a snapshot (every routing table) is read
+    every ``step_s`` seconds.
+    """
+    rng = as_generator(seed)
+    pos = random_swarm(n_nodes, mean_degree, seed=rng)
+    heading = rng.uniform(0, 2 * np.pi, n_nodes)
+    vel = speed_mps * np.c_[np.cos(heading), np.sin(heading), np.zeros(n_nodes)]
+    provider = OlsrProvider(n_nodes, hello_only=hello_only, seed=rng)
+    t0 = time.perf_counter()
+    provider.reset(pos)
+    t = 0.0
+    snap = None
+    while t < sim_seconds - 1e-9:
+        t = min(t + step_s, sim_seconds)
+        pos = pos + vel * step_s
+        snap = provider.advance(t, pos)
+    wall = time.perf_counter() - t0
+    return {
+        "benchmark": "olsr_advance",
+        "n_nodes": n_nodes,
+        "sim_seconds": sim_seconds,
+        "hello_only": hello_only,
+        "mean_degree_target": mean_degree,
+        "mean_degree": float(snap.degree().mean()) if snap is not None else 0.0,
+        "routes": snap.n_entries if snap is not None else 0,
+        "wall_s": wall,
+    }
+
+
+def bench_oracle(n_nodes: int, seed: int = 0, mean_degree: float = 10.0) -> dict:
+    """Wall time of one oracle snapshot (link graph + BFS)."""
+    pos = random_swarm(n_nodes, mean_degree, seed=seed)
+    provider = OracleProvider(n_nodes)
+    t0 = time.perf_counter()
+    snap = provider.reset(pos)
+    return {
+        "benchmark": "oracle",
+        "n_nodes": n_nodes,
+        "routes": snap.n_entries,
+        "wall_s": time.perf_counter() - t0,
+    }

@@ -1,0 +1,240 @@
+"""Potentials of the communication-aware coverage mission (paper eqs. 4 and 5).
+
+For the local game of robot ``i`` with variables ``k`` (the owner and its neighbours, or their
+virtual means :math:`\\bar S_j`, eq. 3), state :math:`S_k` and next state :math:`S_k(x_k)` after
+action :math:`x_k`:
+
+.. math::
+
+    \\phi_u(k, x_k) &= \\int_\\mathcal{R} \\max\\Bigl\\{\\psi_R\\bigl(S_k(x_k), r\\bigr),
+        \\max_{l \\ne k} \\psi_R(S_l, r)\\Bigr\\}\\, p(r)\\, dr \\qquad (4)
+
+    \\phi_p(k, x_k, l, x_l) &= \\psi_R\\bigl(S_k(x_k), S_l(x_l)\\bigr) \\qquad (5)
+
+The unary term is the expected best signal that the neighbourhood gives the ROI when ``k`` takes
+action :math:`x_k` and the other variables stay at their (reported or virtual) states; the
+pairwise term is the link quality between two neighbours after both moved. The integral is the
+midpoint sum of :class:`~swarmgames.scenarios.roi.GaussianROI` (weights :math:`p(r_g) a^2`, not
+normalised: the unary is :math:`\\approx c\\,\\times` the mean signal in dBm). Signals are in
+dBm and therefore negative at the distances of interest; the solver is invariant to a constant
+shift of a variable's payoffs, so the sign does not matter to the game.
+
+Computation (the cost is the unary's integral):
+
+* every distinct position that appears in the batch (current states and next states; a real
+  robot appears in many local games, a virtual mean in every local game that sees it) gets its
+  signal field over the grid once per stage, in float32;
+* per local game and grid cell the best and second-best current signal of its members are
+  found once, so :math:`\\max_{l \\ne k}` costs O(1) per variable: it is the best unless ``k``
+  holds the best, then the second best;
+* the ``(games, variables, actions, cells)`` tensor is processed in chunks of local games so
+  memory stays bounded for large swarms.
+
+Three additions to the paper, each off when its weight is 0 (the defaults of
+:class:`~swarmgames.config.CoverageConfig` switch them on, and ``docs/coverage.md`` shows
+what each one changes):
+
+Smooth maximum (``softness_db``): with the hard maximum of eq. 4 a robot whose signal is
+nowhere the best in its neighbourhood (inside a clump, behind others) gains nothing from any
+move, so it never leaves. :math:`\\tau \\ln(e^{a/\\tau} + e^{b/\\tau})` exceeds
+:math:`\\max\\{a, b\\}` by at most :math:`\\tau \\ln 2` (at a tie) and by almost nothing
+once the two differ by a few :math:`\\tau`, yet gives such robots a gradient. The coverage
+*metric* keeps the hard maximum.
+
+Crowding penalty (``separation_m``, ``separation_cost_db``): robots that take off from one
+small area see almost the same neighbourhood, so eq. 4 gives them almost the same best move and
+they fly in lockstep as a clump. A penalty that grows as a robot's next position comes within
+:math:`d_{sep}` of another robot's current position depends on where each robot sits in the
+clump, so neighbours choose different headings; it doubles as collision avoidance.
+
+Move cost: in eq. 4 every variable
+is scored with the others held at their current states, but all robots move at once. Near the
+optimum this makes neighbours swap back and forth between two adjacent grid positions for
+ever (each step gains a few thousandths of a dB against the old positions of the others). A
+small cost per move, :math:`c_{move}` dB of expected signal, removes these 2-cycles: a robot
+moves only while a move improves its neighbourhood's expected best signal by more than
+:math:`c_{move}`, so the swarm reaches consensus (every robot stays).
+
+References
+----------
+.. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
+   Communication Networks", ICRA 2022 workshop (arXiv 2205.02203), eqs. 1, 3, 4, 5.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from swarmgames.scenarios.roi import GaussianROI
+from swarmgames.scenarios.signal import SignalModel
+
+__all__ = ["CoveragePotentials"]
+
+
+@dataclass(eq=False)
+class CoveragePotentials:
+    """Unary (eq. 4) and pairwise (eq. 5) potentials of the coverage mission.
+
+    Parameters
+    ----------
+    roi : GaussianROI
+        Region of interest and its integration grid.
+    signal : SignalModel
+        :math:`\\psi_R`.
+    softness_db : float, default 0.0
+        Temperature :math:`\\tau` (dB) of the smooth maximum that replaces
+        :math:`\\max\\{a, b\\}` in eq. 4 by :math:`\\tau \\ln(e^{a/\\tau} + e^{b/\\tau})`
+        (0 = the hard maximum). See the module notes.
+    separation_m, separation_cost_db : float, default 0.0
+        Crowding penalty: :math:`c_{sep} \\sum_g p(r_g) a^2 \\sum_{l \ne k}
+        \\max(0, 1 - d(S_k(x_k), S_l) / d_{sep})^2` is subtracted from the unary (0 = off).
+        See the module notes.
+    move_cost_db : float, default 0.0
+        Cost of a move, in dB of expected ROI signal: every action that changes a variable's
+        state has :math:`c_{move} \\cdot \\sum_g p(r_g) a^2` subtracted from its unary (0 = the
+        paper's eq. 4 exactly). See the module notes.
+    chunk_elems : int, default 4_000_000
+        Upper bound on the elements of one temporary ``(games, K, A, cells)`` block.
+
+    Attributes
+    ----------
+    last_integrate_s : float
+        Wall time of the last :meth:`unary` call, seconds (the payoff integration time of
+        the paper's Figure 2b).
+
+    Notes
+    -----
+    Both methods take a batch of local games with the fields of the engine's
+    ``LocalGameBatch``: ``mask (B, K)``, ``states (B, K, D)``, ``next_states (B, K, A, D)``
+    and ``action_mask (B, K, A)``; the first three state coordinates are (x, y, z) in metres.
+    Entries of padded variables or invalid actions are returned as 0.
+    """
+
+    roi: GaussianROI
+    signal: SignalModel = field(default_factory=SignalModel)
+    move_cost_db: float = 0.0
+    softness_db: float = 0.0
+    separation_m: float = 0.0
+    separation_cost_db: float = 0.0
+    chunk_elems: int = 4_000_000
+    last_integrate_s: float = field(default=0.0, init=False)
+
+    @classmethod
+    def from_config(cls, coverage) -> CoveragePotentials:
+        """Build from a :class:`~swarmgames.config.CoverageConfig`."""
+        return cls(
+            GaussianROI.from_config(coverage),
+            SignalModel(
+                coverage.t0_dbm,
+                coverage.l0_db,
+                coverage.path_exponent,
+                coverage.reference_distance_m,
+            ),
+            move_cost_db=coverage.move_cost_db,
+            softness_db=coverage.softness_db,
+            separation_m=coverage.separation_m,
+            separation_cost_db=coverage.separation_cost_db,
+        )
+
+    # ------------------------------------------------------------------ mission metrics
+    def best_signal(self, positions: np.ndarray) -> np.ndarray:
+        """Best signal over the swarm at every grid cell, dBm, shape (G,); ``positions``
+        (N, >= 3), the first three columns (x, y, z) in metres."""
+        pos = np.asarray(positions, dtype=float)[..., :3].reshape(-1, 3)
+        if pos.shape[0] == 0:
+            raise ValueError("positions must hold at least one robot (got 0)")
+        return self.signal.field(pos, self.roi.points).max(axis=0)
+
+    def coverage(self, positions: np.ndarray) -> float:
+        """Coverage of the ROI: the expected best signal,
+        :math:`E[\\max_i \\psi_R(S_i, r) \\mid r \\in \\mathcal{R}]`, dBm."""
+        return float(self.roi.expectation(self.best_signal(positions)))
+
+    # ------------------------------------------------------------------ potentials
+    def unary(self, batch) -> np.ndarray:
+        """:math:`\\phi_u(k, x_k)` of eq. 4 for every game, variable and action, (B, K, A)."""
+        t0 = time.perf_counter()
+        mask = np.asarray(batch.mask, dtype=bool)
+        amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+        states = np.asarray(batch.states, dtype=float)[..., :3]
+        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+        B, K, A = amask.shape
+        out = np.zeros((B, K, A))
+        if B == 0:
+            self.last_integrate_s = time.perf_counter() - t0
+            return out
+        # One signal field per distinct position of the whole batch.
+        cur_rows = np.where(mask[..., None], states, 0.0).reshape(-1, 3)
+        nxt_rows = np.where(amask[..., None], nxt, 0.0).reshape(-1, 3)
+        uniq, inv = np.unique(np.concatenate([cur_rows, nxt_rows]), axis=0, return_inverse=True)
+        inv = inv.reshape(-1)
+        fields = self.signal.field(uniq, self.roi.points)  # (U, G) float32
+        cur_idx = inv[: B * K].reshape(B, K)
+        nxt_idx = inv[B * K :].reshape(B, K, A)
+        w = self.roi.weights.astype(np.float32)
+        G = w.size
+        step = max(1, self.chunk_elems // max(1, K * A * G))
+        neg = np.float32(-np.inf)
+        for lo in range(0, B, step):
+            hi = min(B, lo + step)
+            cur = np.where(mask[lo:hi, :, None], fields[cur_idx[lo:hi]], neg)  # (b, K, G)
+            best_k = np.argmax(cur, axis=1)  # (b, G)
+            best = np.take_along_axis(cur, best_k[:, None, :], axis=1)  # (b, 1, G)
+            rest = cur.copy()
+            np.put_along_axis(rest, best_k[:, None, :], neg, axis=1)
+            second = rest.max(axis=1, keepdims=True)  # (b, 1, G)
+            holds_best = best_k[:, None, :] == np.arange(K)[None, :, None]
+            other = np.where(holds_best, second, best)  # (b, K, G): max over l != k
+            f = fields[nxt_idx[lo:hi]]  # (b, K, A, G)
+            o = other[:, :, None, :]
+            val = np.maximum(f, o)
+            if self.softness_db > 0:
+                tau = np.float32(self.softness_db)
+                val += tau * np.log1p(np.exp(-np.abs(f - o) / tau))
+            out[lo:hi] = val @ w
+        if self.separation_m > 0 and self.separation_cost_db > 0:
+            out -= self._crowding(mask, states, nxt)
+        if self.move_cost_db:
+            moved = np.any(np.abs(nxt - states[:, :, None, :]) > 1e-9, axis=-1)
+            out -= np.where(moved, self.move_cost_db * self.roi.mass, 0.0)
+        out[~amask] = 0.0
+        self.last_integrate_s = time.perf_counter() - t0
+        return out
+
+    def _crowding(self, mask, states, nxt) -> np.ndarray:
+        """Separation penalty of every next state against the others' current states,
+        :math:`c_{sep} \\sum_g p_g a^2 \\sum_{l \ne k} \\max(0, 1 - d_{kl} / d_{sep})^2`."""
+        B, K, A = nxt.shape[:3]
+        out = np.zeros((B, K, A))
+        others = mask[:, None, :] & ~np.eye(K, dtype=bool)[None]  # (B, K, L)
+        step = max(1, self.chunk_elems // max(1, K * A * K))
+        for lo in range(0, B, step):
+            hi = min(B, lo + step)
+            d = np.linalg.norm(
+                nxt[lo:hi, :, :, None, :] - states[lo:hi, None, None, :, :], axis=-1
+            )  # (b, K, A, L)
+            pen = np.maximum(0.0, 1.0 - d / self.separation_m) ** 2
+            out[lo:hi] = np.where(others[lo:hi, :, None, :], pen, 0.0).sum(axis=-1)
+        return self.separation_cost_db * self.roi.mass * out
+
+    def pairwise(self, batch) -> np.ndarray:
+        """:math:`\\phi_p(k, x_k, l, x_l)` of eq. 5, shape (B, K, K, A, A); 0 on the diagonal
+        ``k == l`` and for padded variables or invalid actions."""
+        mask = np.asarray(batch.mask, dtype=bool)
+        amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+        nxt = np.where(amask[..., None], np.asarray(batch.next_states, dtype=float)[..., :3], 0.0)
+        B, K, A = amask.shape
+        out = np.zeros((B, K, K, A, A))
+        step = max(1, self.chunk_elems // max(1, K * K * A * A))
+        off_diag = ~np.eye(K, dtype=bool)[None, :, :, None, None]
+        for lo in range(0, B, step):
+            hi = min(B, lo + step)
+            a = nxt[lo:hi, :, None, :, None, :]  # (b, K, 1, A, 1, 3)
+            b = nxt[lo:hi, None, :, None, :, :]  # (b, 1, K, 1, A, 3)
+            val = self.signal.link(a, b)
+            ok = amask[lo:hi, :, None, :, None] & amask[lo:hi, None, :, None, :] & off_diag
+            out[lo:hi] = np.where(ok, val, 0.0)
+        return out

@@ -1,0 +1,232 @@
+"""UAV motion: a discrete action set of "stay" plus moves along evenly spaced headings.
+
+Action 0 keeps the UAV where it is; action ``m`` (1 <= m <= n_headings) flies ``step_m`` metres
+at constant altitude along heading :math:`\\theta_m = 2\\pi (m - 1) / n_{headings}`
+(counter-clockwise from +x) during one control period. The speed is therefore
+``step_m / control_period_s``; the configuration rejects a step faster than the UAV's speed
+limit. A move is *valid* when it ends inside the arena (an axis-aligned box around the take-off
+area and the ROI) or, for a UAV already outside, when it does not take it farther from the
+arena; "stay" is always valid, so every robot has at least one action.
+
+The model implements the engine's ``ActionModel`` protocol: ``n_actions``, ``apply(states)``
+and ``valid(states)`` over states of shape ``(..., 3)`` = (x, y, z) in metres.
+
+References
+----------
+.. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
+   Communication Networks", ICRA 2022 workshop (arXiv 2205.02203), section II.B: discrete
+   action sets :math:`\\mathcal{A}_i`, one decision per robot per stage (1 Hz in ROSNS3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["AccelerationActions", "HeadingActions", "arena_for"]
+
+STAY = 0
+
+
+@dataclass(frozen=True, eq=False)
+class HeadingActions:
+    """Stay + ``n_headings`` moves of ``step_m`` metres, kept inside ``bounds``.
+
+    Parameters
+    ----------
+    step_m : float
+        Distance of one move, metres (> 0).
+    n_headings : int
+        Number of evenly spaced headings (>= 1).
+    bounds : tuple of 4 floats, optional
+        Arena ``(xmin, xmax, ymin, ymax)``, metres; ``None`` = unbounded.
+
+    Examples
+    --------
+    >>> m = HeadingActions(10.0, 4)
+    >>> m.apply(np.array([0.0, 0.0, 30.0])).round(6).tolist()[:3]
+    [[0.0, 0.0, 30.0], [10.0, 0.0, 30.0], [0.0, 10.0, 30.0]]
+    """
+
+    step_m: float
+    n_headings: int = 8
+    bounds: tuple[float, float, float, float] | None = None
+    offsets: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not self.step_m > 0:
+            raise ValueError(f"step_m must be > 0 (got {self.step_m})")
+        if int(self.n_headings) != self.n_headings or self.n_headings < 1:
+            raise ValueError(f"n_headings must be an integer >= 1 (got {self.n_headings})")
+        if self.bounds is not None:
+            xmin, xmax, ymin, ymax = self.bounds
+            if not (xmin < xmax and ymin < ymax):
+                raise ValueError(
+                    f"bounds must have xmin < xmax and ymin < ymax (got {self.bounds})"
+                )
+        theta = 2.0 * np.pi * np.arange(self.n_headings) / self.n_headings
+        off = np.zeros((self.n_actions, 3))
+        off[1:, 0] = self.step_m * np.cos(theta)
+        off[1:, 1] = self.step_m * np.sin(theta)
+        off[np.abs(off) < 1e-12] = 0.0  # exact zeros for axis-aligned headings
+        off.setflags(write=False)
+        object.__setattr__(self, "offsets", off)
+
+    @property
+    def n_actions(self) -> int:
+        """Number of actions A = 1 + n_headings."""
+        return 1 + int(self.n_headings)
+
+    def labels(self) -> list[str]:
+        """Human-readable action names: ``stay``, then headings in degrees."""
+        deg = 360.0 * np.arange(self.n_headings) / self.n_headings
+        return ["stay", *(f"{d:g}deg" for d in deg)]
+
+    def apply(self, states: np.ndarray) -> np.ndarray:
+        """Next states, shape ``(..., A, 3)``, for states of shape ``(..., 3)``."""
+        s = np.asarray(states, dtype=float)
+        return s[..., None, :] + self.offsets
+
+    def _outside(self, xy: np.ndarray) -> np.ndarray:
+        xmin, xmax, ymin, ymax = self.bounds  # type: ignore[misc]
+        dx = np.maximum(np.maximum(xmin - xy[..., 0], xy[..., 0] - xmax), 0.0)
+        dy = np.maximum(np.maximum(ymin - xy[..., 1], xy[..., 1] - ymax), 0.0)
+        return np.hypot(dx, dy)
+
+    def valid(self, states: np.ndarray) -> np.ndarray:
+        """Valid actions, shape ``(..., A)`` bool: moves that end inside the arena, or do not
+        take a UAV already outside it farther away; "stay" always."""
+        s = np.asarray(states, dtype=float)
+        shape = (*s.shape[:-1], self.n_actions)
+        if self.bounds is None:
+            return np.ones(shape, dtype=bool)
+        now = self._outside(s)[..., None]
+        nxt = self._outside(self.apply(s))
+        ok = nxt <= now + 1e-9
+        ok[..., STAY] = True
+        return ok
+
+    @classmethod
+    def from_config(cls, swarm, bounds=None) -> HeadingActions:
+        """Build from a :class:`~swarmgames.config.SwarmConfig` and an arena."""
+        return cls(swarm.step_m, swarm.n_headings, bounds)
+
+    state_dim = 3
+
+
+def arena_for(roi, start_center_m, start_radius_m: float, margin_m: float):
+    """Arena box holding the ROI's bounding box and the take-off disc, plus a margin.
+
+    Returns ``(xmin, xmax, ymin, ymax)`` in metres.
+    """
+    xmin, xmax, ymin, ymax = roi.bounding_box()
+    cx, cy = start_center_m
+    r = start_radius_m
+    return (
+        min(xmin, cx - r) - margin_m,
+        max(xmax, cx + r) + margin_m,
+        min(ymin, cy - r) - margin_m,
+        max(ymax, cy + r) + margin_m,
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class AccelerationActions:
+    """Acceleration labels on a square grid, rolled forward over one control period.
+
+    The alternative action set of the authors' mean-field flocking controller: each action is
+    a horizontal acceleration :math:`a = (a_x, a_y)` from the grid
+    :math:`\\{-m s, \\dots, 0, \\dots, m s\\}^2` (``s = accel_step``, ``m = n_levels``; the
+    authors used ±0.5 m/s² in steps of 0.25, 25 labels), applied for ``dt`` seconds:
+
+    .. math:: v' = \\mathrm{clip}(v + a\\, dt), \\qquad p' = p + \\tfrac12 (v + v')\\, dt,
+
+    where clip scales the velocity down to ``max_speed`` when it is faster. States are
+    ``(x, y, z, v_x, v_y)`` (metres, m/s). Validity follows :class:`HeadingActions`: the new
+    position must stay in the arena or, outside it, not get farther away; the action that
+    ends nearest the arena is always valid, so no robot is left without an action.
+
+    Parameters
+    ----------
+    accel_step : float
+        Grid step s of the accelerations, m/s² (> 0).
+    n_levels : int
+        Levels m on each side of zero (>= 1): (2 m + 1)² actions.
+    max_speed : float
+        Speed limit, m/s (> 0).
+    dt : float
+        Control period, s (> 0).
+    bounds : tuple of 4 floats, optional
+        Arena ``(xmin, xmax, ymin, ymax)``, metres.
+
+    References
+    ----------
+    .. [1] REFERENCE.md section 5: the authors' flocking controller, 25 acceleration labels on
+       a ±0.5 m/s² grid (step 0.25) rolled forward over 1 s with |v| < 1 m/s.
+
+    Examples
+    --------
+    >>> m = AccelerationActions(0.25, 2, 1.0, 1.0)
+    >>> m.n_actions
+    25
+    >>> m.apply(np.zeros(5))[0].tolist()
+    [0.0, 0.0, 0.0, 0.0, 0.0]
+    """
+
+    accel_step: float
+    n_levels: int = 2
+    max_speed: float = 1.0
+    dt: float = 1.0
+    bounds: tuple[float, float, float, float] | None = None
+    accels: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        for name in ("accel_step", "max_speed", "dt"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0 (got {getattr(self, name)})")
+        if int(self.n_levels) != self.n_levels or self.n_levels < 1:
+            raise ValueError(f"n_levels must be an integer >= 1 (got {self.n_levels})")
+        levels = self.accel_step * np.arange(-self.n_levels, self.n_levels + 1)
+        ax, ay = np.meshgrid(levels, levels, indexing="ij")
+        acc = np.column_stack([ax.ravel(), ay.ravel()])
+        zero = int(np.flatnonzero((acc == 0).all(axis=1))[0])
+        acc = np.vstack([acc[zero : zero + 1], np.delete(acc, zero, axis=0)])  # 0 = coast
+        acc.setflags(write=False)
+        object.__setattr__(self, "accels", acc)
+        if self.bounds is not None:
+            HeadingActions(1.0, 1, self.bounds)  # same bounds check
+
+    state_dim = 5
+
+    @property
+    def n_actions(self) -> int:
+        """Number of actions A = (2 n_levels + 1)²."""
+        return int(self.accels.shape[0])
+
+    def apply(self, states: np.ndarray) -> np.ndarray:
+        """Next states ``(..., A, 5)`` for states ``(..., 5)`` = (x, y, z, v_x, v_y)."""
+        s = np.asarray(states, dtype=float)
+        if s.shape[-1] != 5:
+            raise ValueError(f"states must have 5 columns (x, y, z, vx, vy) (got {s.shape[-1]})")
+        v = s[..., None, 3:5]
+        v_new = v + self.accels * self.dt
+        speed = np.linalg.norm(v_new, axis=-1, keepdims=True)
+        v_new = v_new * np.minimum(1.0, self.max_speed / np.maximum(speed, 1e-300))
+        out = np.broadcast_to(s[..., None, :], (*s.shape[:-1], self.n_actions, 5)).copy()
+        out[..., 0:2] += 0.5 * (v + v_new) * self.dt
+        out[..., 3:5] = v_new
+        return out
+
+    def valid(self, states: np.ndarray) -> np.ndarray:
+        """Valid actions ``(..., A)``: see the class docstring."""
+        s = np.asarray(states, dtype=float)
+        shape = (*s.shape[:-1], self.n_actions)
+        if self.bounds is None:
+            return np.ones(shape, dtype=bool)
+        box = HeadingActions(1.0, 1, self.bounds)
+        now = box._outside(s[..., :2])[..., None]
+        nxt = box._outside(self.apply(s)[..., :2])
+        ok = nxt <= now + 1e-9
+        np.put_along_axis(ok, np.argmin(nxt, axis=-1)[..., None], True, axis=-1)
+        return ok

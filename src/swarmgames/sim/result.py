@@ -1,0 +1,219 @@
+"""The result of a run: tables, summary, plots and the files of the run folder."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["RunResult", "summarise"]
+
+#: Columns of the three tables, in file order.
+TRAJECTORY_COLUMNS = ["t", "robot", "x", "y", "z", "action"]
+METRICS_COLUMNS = [
+    "t",
+    "robot",
+    "payoff",
+    "neighbours",
+    "local_regret",
+    "global_regret",
+    "iterations",
+    "converged",
+    "solve_ms",
+    "integrate_ms",
+]
+SWARM_COLUMNS = ["t", "mean_payoff", "coverage", "mean_hops", "max_hops", "components"]
+
+
+def _trajectory(log) -> pd.DataFrame:
+    s, n = log.actions.shape
+    t_all = np.append(log.times, log.times[-1] + log.period_s if s else log.warmup_s)
+    pos = log.positions  # (S + 1, N, 3)
+    act = np.vstack([log.actions, np.full((1, n), -1)])  # no action after the last stage
+    return pd.DataFrame(
+        {
+            "t": np.repeat(t_all, n),
+            "robot": np.tile(np.arange(n), s + 1),
+            "x": pos[..., 0].ravel(),
+            "y": pos[..., 1].ravel(),
+            "z": pos[..., 2].ravel(),
+            "action": act.ravel(),
+        }
+    )
+
+
+def _metrics(log) -> pd.DataFrame:
+    s, n = log.actions.shape
+    cols: dict[str, Any] = {"t": np.repeat(log.times, n), "robot": np.tile(np.arange(n), s)}
+    for name in METRICS_COLUMNS[2:]:
+        arr = log.per_robot.get(name)
+        cols[name] = (arr if arr is not None else np.zeros((s, n))).ravel()
+    return pd.DataFrame(cols)
+
+
+def _swarm(log) -> pd.DataFrame:
+    cols: dict[str, Any] = {"t": log.times}
+    for name in SWARM_COLUMNS[1:]:
+        cols[name] = log.swarm.get(name, np.zeros(len(log.times)))
+    return pd.DataFrame(cols)
+
+
+def summarise(log, config, wall_s: float) -> dict[str, Any]:
+    """Headline numbers of a run (``summary.json``)."""
+    s, n = log.actions.shape
+    # A robot moves in a stage when its position changes (the action set may have several
+    # actions that keep it in place, or none: a coasting UAV still moves).
+    disp = np.linalg.norm(np.diff(log.positions[..., :3], axis=0), axis=-1)  # (S, N)
+    moving = disp > 1e-6
+    any_moving = moving.any(axis=1)
+    still_from = s - int(np.argmax(any_moving[::-1])) if any_moving.any() else 0
+    if s and not any_moving.any():
+        still_from = 0
+    settled = bool(s and not any_moving[-1])
+    pr = log.per_robot
+    sw = log.swarm
+
+    def first_last(name):
+        v = sw.get(name)
+        return (float(v[0]), float(v[-1])) if v is not None and len(v) else (None, None)
+
+    p0, p1 = first_last("mean_payoff")
+    c0, c1 = first_last("coverage")
+    lr = pr.get("local_regret", np.zeros((0, n)))
+    gr = pr.get("global_regret", np.zeros((0, n)))
+    return {
+        "scenario": config.name,
+        "seed": config.seed,
+        "controller": config.sim.controller,
+        "solver": config.game.solver,
+        "network": config.network.backend,
+        "virtual_mean": config.game.virtual_mean,
+        "n_robots": n,
+        "stages": s,
+        "interrupted": bool(log.interrupted),
+        "mean_payoff_start": p0,
+        "mean_payoff_end": p1,
+        "coverage_start_dbm": c0,
+        "coverage_end_dbm": c1,
+        "consensus": settled,
+        "settled_at_s": float(log.times[still_from]) if settled and s else None,
+        "moving_robots_last_stage": int(moving[-1].sum()) if s else 0,
+        "median_local_regret": float(np.median(lr)) if lr.size else None,
+        "fraction_local_regret_zero": float(np.mean(lr <= 1e-9)) if lr.size else None,
+        "median_global_regret": (
+            float(np.median(gr)) if gr.size and not np.isnan(gr).all() else None
+        ),
+        "mean_hops_end": float(sw["mean_hops"][-1]) if s else None,
+        "max_hops_end": int(sw["max_hops"][-1]) if s else None,
+        "components_end": int(sw["components"][-1]) if s else None,
+        "median_solve_ms": float(np.median(pr["solve_ms"])) if s else None,
+        "median_integrate_ms": float(np.median(pr["integrate_ms"])) if s else None,
+        "median_stage_ms": float(1e3 * np.median(log.stage_s)) if s else None,
+        "wall_s": float(wall_s),
+    }
+
+
+@dataclass(eq=False)
+class RunResult:
+    """Outcome of :func:`swarmgames.run`.
+
+    Attributes
+    ----------
+    config : ScenarioConfig
+        The resolved configuration.
+    trajectory, metrics, swarm : pandas.DataFrame
+        The tables of ``trajectory.csv``, ``metrics.csv`` and ``swarm.csv``.
+    links : list of ndarray
+        1-hop links ``(E, 2)`` at every stage.
+    summary : dict
+        Headline numbers (``summary.json``).
+    roi : GaussianROI
+        The region of interest (for plots).
+    folder : RunFolder or None
+        Where the files were written.
+    """
+
+    config: Any
+    trajectory: pd.DataFrame
+    metrics: pd.DataFrame
+    swarm: pd.DataFrame
+    links: list
+    summary: dict
+    roi: Any
+    folder: Any = None
+    files: list = field(default_factory=list)
+
+    @property
+    def interrupted(self) -> bool:
+        """Whether Ctrl-C stopped the run early."""
+        return bool(self.summary.get("interrupted"))
+
+    @classmethod
+    def from_log(cls, log, config, roi, wall_s: float) -> RunResult:
+        """Assemble the tables and the summary from a :class:`~swarmgames.sim.loop.StageLog`."""
+        return cls(
+            config=config,
+            trajectory=_trajectory(log),
+            metrics=_metrics(log),
+            swarm=_swarm(log),
+            links=log.links,
+            summary=summarise(log, config, wall_s),
+            roi=roi,
+        )
+
+    def to_frame(self, table: Literal["swarm", "metrics", "trajectory"] = "swarm") -> pd.DataFrame:
+        """One of the run's tables as a DataFrame (default: the per-stage swarm table)."""
+        tables = {"swarm": self.swarm, "metrics": self.metrics, "trajectory": self.trajectory}
+        if table not in tables:
+            raise ValueError(f"table must be one of {sorted(tables)} (got {table!r})")
+        return tables[table].copy()
+
+    def plot(self):
+        """Time series of the run (payoff, coverage, regret, network); a matplotlib Figure."""
+        from swarmgames.sim.plots import plot_timeseries
+
+        return plot_timeseries(self)
+
+    def plot_paths(self):
+        """Paths of the robots over the ROI with the final links; a matplotlib Figure."""
+        from swarmgames.sim.plots import plot_paths
+
+        return plot_paths(self)
+
+    def write(self, folder, animation: bool = True, frames: int = 60) -> list:
+        """Write config.toml, the CSVs, the PNGs, animation.gif and summary.json."""
+        from swarmgames.config import to_toml
+        from swarmgames.sim.animation import render_gif
+
+        written = [
+            folder.write_text("config.toml", to_toml(self.config)),
+            folder.write_csv("trajectory.csv", self.trajectory),
+            folder.write_csv("metrics.csv", self.metrics),
+            folder.write_csv("swarm.csv", self.swarm),
+        ]
+        if len(self.swarm):
+            fig = self.plot()
+            written.append(folder.save_figure("timeseries.png", fig))
+            fig = self.plot_paths()
+            written.append(folder.save_figure("paths.png", fig))
+            if animation:
+                written.append(folder.write_bytes("animation.gif", render_gif(self, frames)))
+        written.append(folder.write_json("summary.json", self.summary))
+        self.folder = folder
+        self.files = written
+        return written
+
+    def summary_table(self):
+        """The summary as a rich Table (printed at the end of a run)."""
+        from rich.table import Table
+
+        table = Table(title=f"swarmgames run: {self.config.name}", show_header=False)
+        table.add_column("quantity")
+        table.add_column("value", justify="right")
+        for key, val in self.summary.items():
+            if isinstance(val, float):
+                val = f"{val:.4g}"
+            table.add_row(key, str(val))
+        return table

@@ -1,0 +1,69 @@
+"""Positions traces: parsing and every kind of bad input (issue: bad input names the row)."""
+
+import numpy as np
+import pytest
+
+from swarmgames.errors import InputDataError
+from swarmgames.network.trace import read_positions
+
+GOOD = "t,node,x,y,z\n0,0,0,0,0\n0,1,100,0,0\n1.5,1,200,0,0\n"
+
+
+def _write(tmp_path, text):
+    p = tmp_path / "positions.csv"
+    p.write_text(text)
+    return p
+
+
+def test_reads_piecewise_constant_trace(tmp_path):
+    tr = read_positions(_write(tmp_path, GOOD))
+    assert tr.n_nodes == 2 and tr.times.tolist() == [0.0, 1.5]
+    assert tr.at(1.0)[1].tolist() == [100.0, 0.0, 0.0]
+    assert tr.at(1.5)[1].tolist() == [200.0, 0.0, 0.0]
+    assert tr.at(9.0)[0].tolist() == [0.0, 0.0, 0.0]  # node 0 holds its only row
+    assert not tr.positions.flags.writeable
+
+
+def test_reads_recorded_ns3_trace():
+    tr = read_positions("tests/data/ns3/hex_expand/positions.csv")
+    assert tr.n_nodes == 7 and tr.end == 180.0
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("t,node,x,y,z\n0,0,nan,0,0\n", r"line 2, column x: must be a finite number"),
+        ("t,node,x,y,z\n0,0,0,inf,0\n", r"line 2, column y: must be a finite number"),
+        ("t,node,x,y,z\n0,0,0,0,abc\n", r"line 2, column z: must be a finite number"),
+        ("t,node,x,y\n0,0,0,0\n", r"missing column\(s\) z"),
+        ("t,node,x,y,z\n", r"no rows"),
+        ("t,node,x,y,z\n-1,0,0,0,0\n", r"line 2, column t: must be >= 0"),
+        ("t,node,x,y,z\n0,0,0,0,0\n0,0,1,0,0\n", r"line 3: duplicate row for node 0 at t = 0"),
+        (
+            "t,node,x,y,z\n0,0,0,0,0\n2,0,1,0,0\n1,0,2,0,0\n",
+            r"line 4, column t: times of node 0 must increase",
+        ),
+        ("t,node,x,y,z\n0,0,0,0,0\n1,1,0,0,0\n", r"node 1 has no row at the start time"),
+        ("t,node,x,y,z\n0,0,0,0,0\n0,2,0,0,0\n", r"node 1 has no row"),
+        ("t,node,x,y,z\n0,1.5,0,0,0\n", r"line 2, column node: must be an integer"),
+        ("t,node,x,y,z\n0,-1,0,0,0\n", r"line 2, column node: must be an integer >= 0"),
+    ],
+)
+def test_bad_input_names_the_row(tmp_path, text, match):
+    with pytest.raises(InputDataError, match=match):
+        read_positions(_write(tmp_path, text))
+
+
+def test_missing_file():
+    with pytest.raises(InputDataError, match="positions file not found"):
+        read_positions("/nonexistent/positions.csv")
+
+
+def test_empty_file(tmp_path):
+    with pytest.raises(InputDataError, match="not a readable CSV"):
+        read_positions(_write(tmp_path, ""))
+
+
+def test_single_robot_trace(tmp_path):
+    tr = read_positions(_write(tmp_path, "t,node,x,y,z\n0,0,1,2,3\n"))
+    assert tr.n_nodes == 1 and np.array_equal(tr.at(0.0), [[1.0, 2.0, 3.0]])

@@ -1,0 +1,188 @@
+"""Tests of the coverage potentials (paper eqs. 4 and 5) and the coverage metric."""
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from swarmgames.scenarios import CoveragePotentials, GaussianROI, HeadingActions, SignalModel
+
+T0, L0, N_EXP = 16.0206, 46.6777, 3.0  # ns-3 log-distance defaults, REFERENCE.md section 2
+
+
+def _psi(d):
+    # paper section III: psi_R = T0 - (L0 + 10 n log10 d), clamped at d0 = 1 m
+    return T0 - (L0 + 10.0 * N_EXP * math.log10(max(d, 1.0)))
+
+
+def _batch(states, members_mask, model):
+    states = np.asarray(states, dtype=float)
+    return SimpleNamespace(
+        mask=np.asarray(members_mask, dtype=bool),
+        states=states,
+        next_states=model.apply(states),
+        action_mask=model.valid(states) & np.asarray(members_mask, dtype=bool)[..., None],
+    )
+
+
+@pytest.fixture
+def small():
+    # A coarse grid (cell 60 m) keeps the hand computation short.
+    roi = GaussianROI((0.0, 0.0), ((150.0**2, 0.0), (0.0, 100.0**2)), 0.9, 60.0)
+    return CoveragePotentials(roi, SignalModel(T0, L0, N_EXP, 1.0)), HeadingActions(20.0, 4)
+
+
+def test_two_robots_against_hand_computation(small):
+    pot, model = small
+    s0, s1 = (-40.0, 10.0, 30.0), (80.0, -20.0, 30.0)
+    batch = _batch([[s0, s1]], [[True, True]], model)
+    u = pot.unary(batch)
+    p = pot.pairwise(batch)
+    pts, w = pot.roi.points, pot.roi.weights
+
+    def d3(a, r):
+        return math.sqrt((a[0] - r[0]) ** 2 + (a[1] - r[1]) ** 2 + a[2] ** 2)
+
+    for k, (me, other) in enumerate([(s0, s1), (s1, s0)]):
+        for a in range(model.n_actions):
+            nx = (me[0] + model.offsets[a, 0], me[1] + model.offsets[a, 1], me[2])
+            # eq. 4: sum over cells of p(r) a^2 * max(psi(own next state), psi(other's state))
+            hand = sum(
+                wg * max(_psi(d3(nx, r)), _psi(d3(other, r))) for r, wg in zip(pts, w, strict=True)
+            )
+            assert u[0, k, a] == pytest.approx(hand, abs=1e-3)
+    for a in range(model.n_actions):
+        for b in range(model.n_actions):
+            n0 = np.add(s0, model.offsets[a])
+            n1 = np.add(s1, model.offsets[b])
+            # eq. 5: link quality between the two next states, both at 30 m
+            hand = _psi(math.dist(n0, n1))
+            assert p[0, 0, 1, a, b] == pytest.approx(hand, abs=1e-4)
+            assert p[0, 1, 0, b, a] == pytest.approx(hand, abs=1e-4)
+    assert np.all(p[0, 0, 0] == 0) and np.all(p[0, 1, 1] == 0)
+
+    # Payoff of the local game (eq. 1) for one profile, alpha_a = 1, alpha_b = 0.001.
+    x0, x1 = 1, 3
+    m = u[0, 0, x0] + u[0, 1, x1] + 0.001 * (p[0, 0, 1, x0, x1] + p[0, 1, 0, x1, x0])
+    n0, n1 = np.add(s0, model.offsets[x0]), np.add(s1, model.offsets[x1])
+    hand = (
+        sum(wg * max(_psi(d3(n0, r)), _psi(d3(s1, r))) for r, wg in zip(pts, w, strict=True))
+        + sum(wg * max(_psi(d3(n1, r)), _psi(d3(s0, r))) for r, wg in zip(pts, w, strict=True))
+        + 0.002 * _psi(math.dist(n0, n1))
+    )
+    assert m == pytest.approx(hand, abs=2e-3)
+
+
+def test_one_robot_unary_is_own_integral(small):
+    pot, model = small
+    batch = _batch([[[10.0, 0.0, 30.0]]], [[True]], model)
+    u = pot.unary(batch)
+    f = pot.signal.field(model.apply(np.array([10.0, 0.0, 30.0])), pot.roi.points, np.float64)
+    np.testing.assert_allclose(u[0, 0], f @ pot.roi.weights, atol=1e-3)
+    assert pot.pairwise(batch).shape == (1, 1, 1, 5, 5)
+    assert np.all(pot.pairwise(batch) == 0)
+
+
+def test_colocated_robots_are_finite(small):
+    pot, model = small
+    batch = _batch([[[0.0, 0.0, 0.0]] * 3], [[True] * 3], model)
+    assert np.all(np.isfinite(pot.unary(batch)))
+    p = pot.pairwise(batch)
+    assert np.all(np.isfinite(p))
+    assert p[0, 0, 1, 0, 0] == pytest.approx(T0 - L0)  # d = 0 clamped to d0 = 1 m
+
+
+def _reference_unary(pot, batch):
+    """Direct float64 evaluation of eq. 4, one variable and action at a time."""
+    B, K, A = batch.action_mask.shape
+    out = np.zeros((B, K, A))
+    pts, w = pot.roi.points, pot.roi.weights
+    for b in range(B):
+        for k in range(K):
+            if not batch.mask[b, k]:
+                continue
+            others = [j for j in range(K) if j != k and batch.mask[b, j]]
+            o = (
+                pot.signal.field(batch.states[b, others], pts, np.float64).max(axis=0)
+                if others
+                else np.full(len(pts), -np.inf)
+            )
+            f = pot.signal.field(batch.next_states[b, k], pts, np.float64)
+            out[b, k] = np.maximum(f, o) @ w
+            out[b, k, ~batch.action_mask[b, k]] = 0.0
+    return out
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    b=st.integers(1, 5),
+    k=st.integers(1, 5),
+    chunk=st.sampled_from([1, 500, 4_000_000]),
+)
+def test_vectorised_unary_matches_reference(seed, b, k, chunk):
+    rng = np.random.default_rng(seed)
+    roi = GaussianROI((0.0, 0.0), ((200.0**2, 0.0), (0.0, 200.0**2)), 0.95, 50.0)
+    pot = CoveragePotentials(roi, chunk_elems=chunk)
+    model = HeadingActions(15.0, 8, (-400.0, 400.0, -400.0, 400.0))
+    xy = rng.uniform(-450, 450, (b, k, 2))
+    xy[:, 1:2] = xy[:, 0:1] if k > 1 and rng.random() < 0.3 else xy[:, 1:2]  # co-located
+    states = np.concatenate([xy, np.full((b, k, 1), 30.0)], axis=-1)
+    mask = rng.random((b, k)) < 0.8
+    mask[:, 0] = True
+    batch = _batch(states, mask, model)
+    np.testing.assert_allclose(pot.unary(batch), _reference_unary(pot, batch), atol=2e-3)
+    assert pot.last_integrate_s > 0
+
+
+def test_coverage_metric(small):
+    pot, _ = small
+    centre = pot.coverage(np.array([[0.0, 0.0, 30.0]]))
+    far = pot.coverage(np.array([[2000.0, 0.0, 30.0]]))
+    both = pot.coverage(np.array([[0.0, 0.0, 30.0], [2000.0, 0.0, 30.0]]))
+    assert centre > far
+    assert both == pytest.approx(centre, abs=1e-5)  # the best signal ignores the far robot
+    f = pot.signal.field(np.array([[0.0, 0.0, 30.0]]), pot.roi.points, np.float64)[0]
+    assert centre == pytest.approx(f @ pot.roi.weights / pot.roi.weights.sum(), abs=1e-4)
+    with pytest.raises(ValueError, match="at least one robot"):
+        pot.coverage(np.zeros((0, 3)))
+
+
+def test_move_cost_and_crowding_penalty(small):
+    base, model = small
+    roi, sig = base.roi, base.signal
+    pot = CoveragePotentials(roi, sig, move_cost_db=0.01, separation_m=50.0, separation_cost_db=0.1)
+    s = np.array([[[0.0, 0.0, 30.0], [20.0, 0.0, 30.0]]])
+    batch = _batch(s, [[True, True]], model)
+    diff = base.unary(batch) - pot.unary(batch)
+    nxt = model.apply(s[0])  # (2, A, 3)
+    for k, other in ((0, 1), (1, 0)):
+        d = np.linalg.norm(nxt[k] - s[0, other], axis=-1)
+        crowd = 0.1 * roi.mass * np.maximum(0.0, 1.0 - d / 50.0) ** 2
+        moved = np.r_[0.0, np.full(model.n_actions - 1, 0.01 * roi.mass)]
+        np.testing.assert_allclose(diff[0, k], crowd + moved, atol=1e-9)
+    # moving away from the neighbour (heading 180 degrees for robot 0) is penalised least
+    assert np.argmin(diff[0, 0, 1:]) + 1 == 3  # 4 headings: 0, 90, 180, 270 degrees
+
+
+def test_smooth_maximum(small):
+    base, model = small
+    pot = CoveragePotentials(base.roi, base.signal, softness_db=2.0)
+    s = np.array([[[0.0, 0.0, 30.0], [60.0, 30.0, 30.0]]])
+    batch = _batch(s, [[True, True]], model)
+    u = pot.unary(batch)
+    pts, w = base.roi.points, base.roi.weights
+    for k, other in ((0, 1), (1, 0)):
+        f = base.signal.field(model.apply(s[0, k]), pts, np.float64)  # (A, G)
+        o = base.signal.field(s[0, other][None], pts, np.float64)[0]
+        smooth = 2.0 * np.logaddexp(f / 2.0, o / 2.0)  # tau ln(e^(a/tau) + e^(b/tau))
+        np.testing.assert_allclose(u[0, k], smooth @ w, atol=2e-3)
+    # never below the hard maximum, at most tau ln 2 above it
+    excess = u - base.unary(batch)
+    assert np.all(excess >= -1e-4) and np.all(excess <= 2.0 * np.log(2) * base.roi.mass + 1e-4)
+    # one robot: nothing to smooth against
+    one = _batch(s[:, :1], [[True]], model)
+    np.testing.assert_allclose(pot.unary(one), base.unary(one), atol=1e-6)

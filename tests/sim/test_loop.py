@@ -1,0 +1,146 @@
+"""Tests of the stage loop: one robot, a partitioned swarm, Ctrl-C, determinism."""
+
+import numpy as np
+import pytest
+
+from swarmgames.config import parse_config
+from swarmgames.sim import build_mission, run, run_stages
+from swarmgames.sim.controllers import GameController
+from swarmgames.sim.loop import start_positions, swarm_graph_stats
+
+from .conftest import DiskOracle
+
+
+def _cfg(**sections):
+    base = {"sim": {"duration_s": 8.0, "warmup_s": 2.0, "animation": False}}
+    for key, val in sections.items():
+        base.setdefault(key, {}).update(val) if isinstance(val, dict) else base.update({key: val})
+    return parse_config(base)
+
+
+def test_one_robot():
+    cfg = _cfg(swarm={"n_robots": 1})
+    res = run(cfg, progress=False, provider=DiskOracle())
+    m = res.to_frame("metrics")
+    assert len(m) == 8
+    assert (m["neighbours"] == 0).all()
+    assert (m["local_regret"] == 0).all()  # a one-variable game is solved exactly
+    assert res.swarm["components"].eq(1).all()
+    assert res.swarm["max_hops"].eq(0).all()
+    assert res.swarm["coverage"].iloc[-1] > res.swarm["coverage"].iloc[0]
+
+
+def test_partitioned_swarm():
+    # A 50 m radio range leaves robots taking off 60 m apart with no link at all.
+    cfg = _cfg(swarm={"n_robots": 4, "start_radius_m": 200.0})
+    res = run(cfg, progress=False, provider=DiskOracle(radius=50.0))
+    sw = res.to_frame()
+    assert sw["components"].iloc[0] >= 2
+    m = res.to_frame("metrics")
+    isolated = m[m["neighbours"] == 0]
+    assert len(isolated) > 0
+    assert np.isfinite(m["payoff"]).all()
+    assert (m["global_regret"] >= 0).all()
+
+
+def test_graph_stats_of_partition():
+    from swarmgames.network.topology import TopologySnapshot
+
+    hops = np.array([[0, 1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 1], [0, 0, 1, 0]])
+    mean_h, max_h, comps, edges = swarm_graph_stats(TopologySnapshot.from_hop_matrix(0.0, hops))
+    assert (mean_h, max_h, comps) == (1.0, 1, 2)
+    assert edges.tolist() == [[0, 1], [2, 3]]
+
+
+@pytest.mark.parametrize("backend", ["olsr", "test-disk"])
+def test_same_seed_identical_run_and_other_seed_differs(backend):
+    cfg = _cfg(seed=3, swarm={"start_radius_m": 200.0})
+
+    def provider():
+        return DiskOracle() if backend == "test-disk" else None
+
+    a = run(cfg, progress=False, provider=provider())
+    b = run(cfg, progress=False, provider=provider())
+    for table in ("trajectory", "metrics"):
+        cols = [c for c in a.to_frame(table).columns if not c.endswith("_ms")]
+        assert a.to_frame(table)[cols].equals(b.to_frame(table)[cols])
+    c = run(_cfg(seed=4, swarm={"start_radius_m": 200.0}), progress=False, provider=provider())
+    assert not a.trajectory.equals(c.trajectory)
+
+
+class _Interrupting:
+    """Wraps a controller and raises KeyboardInterrupt in stage ``at``."""
+
+    def __init__(self, inner, at):
+        self.inner, self.at, self.calls = inner, at, 0
+
+    def decide(self, *args):
+        self.calls += 1
+        if self.calls > self.at:
+            raise KeyboardInterrupt
+        return self.inner.decide(*args)
+
+
+def test_ctrl_c_keeps_completed_stages():
+    cfg = _cfg()
+    pot, model = build_mission(cfg)
+    rng = np.random.default_rng(0)
+    pos = start_positions(5, (0.0, 0.0), 20.0, 30.0, rng)
+    provider = DiskOracle()
+    log = run_stages(
+        provider=provider,
+        controller=_Interrupting(GameController(cfg, pot, model), 3),
+        potentials=pot,
+        action_model=model,
+        positions=pos,
+        n_stages=10,
+        period_s=1.0,
+        warmup_s=2.0,
+        rng=rng,
+    )
+    assert log.interrupted
+    assert log.actions.shape == (3, 5)
+    assert log.positions.shape == (4, 5, 3)
+    np.testing.assert_array_equal(log.times, [2.0, 3.0, 4.0])
+    # the network was advanced to the warm-up end and then once per completed stage
+    assert provider.calls == [2.0, 3.0, 4.0, 5.0]
+
+
+def test_positions_follow_actions():
+    cfg = _cfg()
+    res = run(cfg, progress=False, provider=DiskOracle())
+    tr = res.trajectory
+    n = cfg.swarm.n_robots
+    xy = tr[["x", "y"]].to_numpy().reshape(-1, n, 2)
+    act = tr["action"].to_numpy().reshape(-1, n)[:-1]
+    step = np.linalg.norm(np.diff(xy, axis=0), axis=-1)
+    np.testing.assert_allclose(step[act == 0], 0.0)
+    np.testing.assert_allclose(step[act > 0], cfg.swarm.step_m)
+    assert (tr["z"] == cfg.swarm.altitude_m).all()
+
+
+def test_start_positions_in_takeoff_disc():
+    pos = start_positions(500, (10.0, -5.0), 25.0, 30.0, np.random.default_rng(1))
+    r = np.hypot(pos[:, 0] - 10.0, pos[:, 1] + 5.0)
+    assert r.max() <= 25.0
+    assert r.mean() == pytest.approx(25.0 * 2 / 3, rel=0.05)  # uniform over the disc
+
+
+def test_colocated_start():
+    # Exactly co-located robots are indistinguishable to their local games: with the argmax
+    # they take the same action every stage and stay together; sampling the action from the
+    # marginal separates them. Both runs stay finite.
+    cfg = _cfg(swarm={"n_robots": 3, "start_radius_m": 0.0}, sim={"duration_s": 12.0})
+    together = run(cfg, progress=False, provider=DiskOracle())
+    xy = together.trajectory[["x", "y"]].to_numpy().reshape(-1, 3, 2)
+    np.testing.assert_allclose(xy[:, 1:], np.repeat(xy[:, :1], 2, axis=1))
+    cfg = _cfg(
+        swarm={"n_robots": 3, "start_radius_m": 0.0},
+        game={"action_choice": "sample"},
+        sim={"duration_s": 60.0},
+    )
+    apart = run(cfg, progress=False, provider=DiskOracle())
+    xy = apart.trajectory[["x", "y"]].to_numpy().reshape(-1, 3, 2)
+    assert np.ptp(xy[-1], axis=0).max() > 0
+    for res in (together, apart):
+        assert np.isfinite(res.metrics[["payoff", "local_regret", "global_regret"]]).all().all()
