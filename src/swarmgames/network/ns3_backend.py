@@ -129,6 +129,9 @@ class Ns3Provider:
     seed : int, numpy.random.Generator or None
         Source of every random choice: each ``reset`` draws ns-3's run number (OLSR jitter,
         Nakagami fading) and the shadowing losses from it. Equal seeds give equal runs.
+    run : int, optional
+        Use this ns-3 run number (``RngSeedManager.SetRun``, with seed 1) at every ``reset``
+        instead of drawing one: reproduces a run recorded with plain ns-3.
 
     Raises
     ------
@@ -155,12 +158,19 @@ class Ns3Provider:
     name = "ns3"
 
     def __init__(
-        self, config: NetworkConfig | None = None, *, seed: int | np.random.Generator | None = None
+        self,
+        config: NetworkConfig | None = None,
+        *,
+        seed: int | np.random.Generator | None = None,
+        run: int | None = None,
     ) -> None:
         self.config = NetworkConfig() if config is None else config
         if not isinstance(self.config, NetworkConfig):
             raise TypeError(f"config must be a NetworkConfig (got {type(self.config).__name__})")
         check_ns3_config(self.config)
+        if run is not None and not (isinstance(run, (int, np.integer)) and run >= 1):
+            raise ValueError(f"run must be an integer >= 1 (got {run!r})")
+        self._run = None if run is None else int(run)
         self._rng = np.random.default_rng(seed)
         self._ns = load_ns3()
         self._token = next(_tokens)
@@ -288,7 +298,7 @@ class Ns3Provider:
         ns.Simulator.Destroy()
         ns.Ipv4AddressGenerator.Reset()
         _owner[0] = self._token
-        self.run_number = int(self._rng.integers(1, 2**31))
+        self.run_number = self._run or int(self._rng.integers(1, 2**31))
         ns.RngSeedManager.SetSeed(1)
         ns.RngSeedManager.SetRun(self.run_number)
 
