@@ -1,0 +1,382 @@
+"""Discrete-event OLSR (RFC 3626) for a whole swarm, vectorised over nodes and messages.
+
+Timing follows ns-3 3.44: every node starts at ``start_time``; its HELLO timer fires at
+``start + k * hello_interval`` and its TC timer at ``start + k * tc_interval``; each message is
+built when its timer fires and sent after a uniform jitter in ``[0, max_jitter]``. A message
+reaches the nodes linked to its sender at the moment it is sent (:mod:`..links`).
+
+Because every node's timers fire together, all HELLOs of one round are built from the same
+state and their receptions commute: a round is processed as one batch of sparse array updates
+(split only where an ``advance`` call ends or the positions change). State lives in
+:class:`~.tables.KeyedTable` arrays for the whole swarm:
+
+* link set ``(r, j)``: ``L_ASYM_time``, ``L_SYM_time``, ``L_time`` and the time first heard;
+* 2-hop set ``(r, j, x)`` and MPR-selector set ``(r, j)``: expiry times;
+* topology set ``(r, last, dest)``: expiry time.
+
+Link sensing (RFC 7.1.1): a HELLO from ``j`` sets ``L_ASYM_time = t + V``; if it lists ``r`` as
+a symmetric or asymmetric link, ``L_SYM_time = t + V`` and ``L_time = L_SYM_time + V``; listed as
+lost, ``L_SYM_time = t - 1``. ``V`` is the neighbour hold time (6 s).
+
+Routing tables are recomputed, as in ns-3, only when a node receives an OLSR packet or loses a
+symmetric neighbour, not when a tuple expires. Node ``r``'s table at time ``t`` is therefore the
+RFC section 10 computation on its tuples still valid at ``c_r`` = the later of its last packet
+reception and its last symmetric-link expiry before ``t``; it is evaluated lazily when a
+snapshot is read.
+
+TC flooding (RFC 3.4, 9): each TC is flooded wave by wave through the link graph in force when
+it is built; a node accepts a copy only from a symmetric neighbour, processes only the first
+copy, and retransmits (after a new jitter) when the copy came from one of its MPR selectors. The
+arrival times are then queued and applied when the clock passes them.
+
+Approximations, documented in ``docs/network.md``: TC floods use the link state and positions
+at the time the TC is built; a flood's wave order stands in for exact time order between waves;
+MPR sets are recomputed when HELLOs are built rather than after every reception; HELLO and TC
+messages are not aggregated into one packet.
+
+References
+----------
+.. [1] RFC 3626 sections 3.4, 6-10, 18.
+.. [2] ns-3 3.44 ``src/olsr/model/olsr-routing-protocol.cc``.
+.. [3] REFERENCE.md section 3.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from swarmgames.config import OlsrConfig
+from swarmgames.network.links import LinkGraph
+from swarmgames.network.olsr.mpr import select_mprs
+from swarmgames.network.olsr.routing import compute_routes
+from swarmgames.network.olsr.tables import KeyedTable
+
+__all__ = ["OlsrEngine"]
+
+_LOST, _ASYM, _SYM = 0, 1, 2
+_NOT_NEIGH, _SYM_NEIGH, _MPR_NEIGH = 0, 1, 2
+
+
+def _csr_gather(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions of the CSR entries of ``rows`` and, for each, the index into ``rows``."""
+    starts = indptr[rows]
+    counts = indptr[rows + 1] - starts
+    total = int(counts.sum())
+    owner = np.repeat(np.arange(rows.size), counts)
+    offset = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
+    return np.repeat(starts, counts) + offset, owner
+
+
+class OlsrEngine:
+    """Mutable OLSR state of ``n_nodes`` nodes and its event loop.
+
+    Parameters
+    ----------
+    n_nodes : int
+        Number of nodes.
+    olsr : OlsrConfig
+        Intervals, jitter, hold times, willingness.
+    rng : numpy Generator
+        Source of the message jitter.
+    hello_only : bool
+        Send no TCs (routes of at most 2 hops).
+    start_time : float
+        Time at which every node starts (first HELLO and TC timers).
+    """
+
+    def __init__(
+        self,
+        n_nodes: int,
+        olsr: OlsrConfig,
+        rng: np.random.Generator,
+        hello_only: bool = False,
+        start_time: float = 0.0,
+    ) -> None:
+        self.n = int(n_nodes)
+        self.cfg = olsr
+        self.rng = rng
+        self.hello_only = hello_only
+        self.time = float(start_time)
+        n = self.n
+        self._nn = np.int64(n)
+        self.links = KeyedTable(("asym", "sym", "ltime", "created"))
+        self.two_hop = KeyedTable(("expiry",))
+        self.selectors = KeyedTable(("expiry",))
+        self.topology = KeyedTable(("expiry",))
+        self.last_rx = np.full(n, -np.inf)
+        self.next_hello = float(start_time)
+        self.next_tc = float(start_time)
+        # Current HELLO round: content (sorted keys sender*N+listed), codes, send times.
+        self._hello_keys = np.zeros(0, dtype=np.int64)
+        self._hello_link = np.zeros(0, dtype=np.int8)
+        self._hello_neigh = np.zeros(0, dtype=np.int8)
+        self._hello_send = np.full(n, np.inf)
+        # Queued TC deliveries (receiver, originator, time, round) and heard packets.
+        self._tc_rounds: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._tc_round_id = 0
+        self._q_r = np.zeros(0, dtype=np.int64)
+        self._q_o = np.zeros(0, dtype=np.int64)
+        self._q_t = np.zeros(0)
+        self._q_round = np.zeros(0, dtype=np.int64)
+        self._heard_r = np.zeros(0, dtype=np.int64)
+        self._heard_t = np.zeros(0)
+
+    # ------------------------------------------------------------------ event loop
+    def run_until(self, to_time: float, graph: LinkGraph) -> None:
+        """Process every event in ``(time, to_time]`` with the links of ``graph``."""
+        while True:
+            build = self.next_hello if self.hello_only else min(self.next_hello, self.next_tc)
+            if build > to_time:
+                break
+            self._deliver_until(build, graph)
+            if self.next_hello == build:
+                self._build_hellos(build)
+                self.next_hello = build + self.cfg.hello_interval_s
+            if not self.hello_only and self.next_tc == build:
+                self._build_tc(build, graph)
+                self.next_tc = build + self.cfg.tc_interval_s
+            self._prune(build)
+        self._deliver_until(to_time, graph)
+        self.time = float(to_time)
+
+    def _jitter(self, size: int) -> np.ndarray:
+        return self.rng.uniform(0.0, self.cfg.max_jitter_s, size=size)
+
+    def _deliver_until(self, t: float, graph: LinkGraph) -> None:
+        due = np.flatnonzero(self._hello_send <= t)
+        if due.size:
+            self._receive_hellos(due, graph)
+            self._hello_send[due] = np.inf
+        if self._q_t.size:
+            now = self._q_t <= t
+            if now.any():
+                self._receive_tcs(
+                    self._q_r[now], self._q_o[now], self._q_t[now], self._q_round[now]
+                )
+                keep = ~now
+                self._q_r, self._q_o = self._q_r[keep], self._q_o[keep]
+                self._q_t, self._q_round = self._q_t[keep], self._q_round[keep]
+        if self._heard_t.size:
+            now = self._heard_t <= t
+            if now.any():
+                np.maximum.at(self.last_rx, self._heard_r[now], self._heard_t[now])
+                self._heard_r, self._heard_t = self._heard_r[~now], self._heard_t[~now]
+
+    def _prune(self, t: float) -> None:
+        self.links.keep(self.links.cols["ltime"] >= t)
+        for table in (self.two_hop, self.selectors, self.topology):
+            table.keep(table.cols["expiry"] >= t)
+        live = set(np.unique(self._q_round).tolist())
+        self._tc_rounds = {k: v for k, v in self._tc_rounds.items() if k in live}
+
+    # ------------------------------------------------------------------ state views
+    def _clock(self, t: float) -> np.ndarray:
+        """Per-node time of the last routing-table computation at or before ``t``."""
+        clock = self.last_rx.copy()
+        sym = self.links.cols["sym"]
+        lapsed = sym <= t
+        if lapsed.any():
+            np.maximum.at(clock, self.links.keys[lapsed] // self._nn, sym[lapsed])
+        return np.minimum(clock, t)
+
+    def _valid(self, clock: np.ndarray):
+        """Symmetric links and 2-hop triples valid at each owner's ``clock``."""
+        n = self._nn
+        lk = self.links.keys
+        owner = lk // n
+        sym_ok = self.links.cols["sym"] > clock[owner]
+        s_owner, s_neigh = owner[sym_ok], lk[sym_ok] % n
+        s_created = self.links.cols["created"][sym_ok]
+        tk = self.two_hop.keys
+        t_owner = tk // (n * n)
+        th_ok = self.two_hop.cols["expiry"] > clock[t_owner]
+        t_owner, rest = t_owner[th_ok], tk[th_ok] % (n * n)
+        t_neigh, t_x = rest // n, rest % n
+        return s_owner, s_neigh, s_created, t_owner, t_neigh, t_x
+
+    def routes(self, t: float | None = None, max_hops: int | None = None):
+        """Every node's routing table at time ``t`` (default: now).
+
+        Returns
+        -------
+        owner, dest, hops, next_hop : ndarray
+            Sorted by ``(owner, dest)``.
+        """
+        t = self.time if t is None else t
+        clock = self._clock(t)
+        s_owner, s_neigh, _, t_owner, t_neigh, t_x = self._valid(clock)
+        tp = None
+        if not self.hello_only and len(self.topology):
+            n = self._nn
+            tk = self.topology.keys
+            o = tk // (n * n)
+            ok = self.topology.cols["expiry"] > clock[o]
+            rest = tk[ok] % (n * n)
+            tp = (o[ok], rest % n, rest // n)
+        if self.hello_only:
+            max_hops = 2 if max_hops is None else min(max_hops, 2)
+        return compute_routes(
+            self.n,
+            s_owner,
+            s_neigh,
+            t_owner,
+            t_neigh,
+            t_x,
+            *(tp if tp is not None else (None, None, None)),
+            max_hops=max_hops,
+        )
+
+    def mpr_keys(self, t: float) -> np.ndarray:
+        """Sorted keys ``r * N + m`` of every node's MPR set, computed on the state at ``t``."""
+        clock = np.full(self.n, float(t))
+        s_owner, s_neigh, s_created, t_owner, t_neigh, t_x = self._valid(clock)
+        n = self._nn
+        sym_keys = s_owner * n + s_neigh
+        # Strict 2-hop: relay symmetric, target neither the owner nor one of its neighbours.
+        ok = np.isin(t_owner * n + t_neigh, sym_keys)
+        ok &= (t_x != t_owner) & ~np.isin(t_owner * n + t_x, sym_keys)
+        triples = np.unique((t_owner[ok] * n + t_neigh[ok]) * n + t_x[ok])
+        return select_mprs(
+            self.n,
+            s_owner,
+            s_neigh,
+            s_created,
+            triples // (n * n),
+            (triples // n) % n,
+            triples % n,
+            self.cfg.willingness,
+        )
+
+    # ------------------------------------------------------------------ HELLO
+    def _build_hellos(self, b: float) -> None:
+        lk = self.links.keys
+        alive = self.links.cols["ltime"] >= b
+        keys = lk[alive]
+        sym = self.links.cols["sym"][alive] >= b
+        asym = self.links.cols["asym"][alive] >= b
+        link = np.where(sym, _SYM, np.where(asym, _ASYM, _LOST)).astype(np.int8)
+        neigh = np.where(sym, _SYM_NEIGH, _NOT_NEIGH).astype(np.int8)
+        neigh[np.isin(keys, self.mpr_keys(b)) & sym] = _MPR_NEIGH
+        self._hello_keys, self._hello_link, self._hello_neigh = keys, link, neigh
+        self._hello_send = b + self._jitter(self.n)
+
+    def _receive_hellos(self, senders: np.ndarray, graph: LinkGraph) -> None:
+        n, V = self._nn, self.cfg.neighbour_hold_s
+        pos, idx = _csr_gather(graph.indptr, senders)
+        j = senders[idx].astype(np.int64)
+        r = graph.indices[pos].astype(np.int64)
+        if r.size == 0:
+            return
+        d = self._hello_send[j]
+        np.maximum.at(self.last_rx, r, d)
+        # How j's HELLO lists r.
+        hk = self._hello_keys
+        hi, found = self._lookup(hk, j * n + r)
+        code = np.full(r.size, -1, dtype=np.int8)
+        ntype = np.full(r.size, -1, dtype=np.int8)
+        code[found] = self._hello_link[hi[found]]
+        ntype[found] = self._hello_neigh[hi[found]]
+        # Link sensing, RFC 7.1.1.
+        lkey = r * n + j
+        _, lfound = self.links.find(lkey)
+        sym_t = np.where(lfound, self.links.get("sym", lkey), d - 1.0)
+        ltime = np.where(lfound, self.links.get("ltime", lkey), d + V)
+        created = np.where(lfound, self.links.get("created", lkey), d)
+        asym_t = d + V
+        listed = code >= _ASYM
+        sym_t = np.where(code == _LOST, d - 1.0, np.where(listed, d + V, sym_t))
+        ltime = np.where(listed, d + 2 * V, ltime)
+        ltime = np.maximum(ltime, asym_t)
+        self.links.upsert(lkey, asym=asym_t, sym=sym_t, ltime=ltime, created=created)
+        # 2-hop set, RFC 8.2.1: only from symmetric neighbours; replaces what j said before.
+        is_sym = sym_t >= d
+        rs, js, ds = r[is_sym], j[is_sym], d[is_sym]
+        self.two_hop.drop_prefixes(rs * n + js, n)
+        two = self._hello_neigh >= _SYM_NEIGH
+        c_keys = hk[two]
+        if c_keys.size and rs.size:
+            ptr = np.searchsorted(c_keys, np.arange(self.n + 1, dtype=np.int64) * n)
+            cpos, cidx = _csr_gather(ptr, js)
+            x = c_keys[cpos] % n
+            ok = x != rs[cidx]
+            keys = ((rs[cidx] * n + js[cidx]) * n + x)[ok]
+            self.two_hop.upsert(keys, expiry=ds[cidx][ok] + V)
+        # MPR-selector set, RFC 8.4.1.
+        sel = ntype == _MPR_NEIGH
+        if sel.any():
+            self.selectors.upsert(lkey[sel], expiry=d[sel] + V)
+
+    @staticmethod
+    def _lookup(keys: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        idx = np.searchsorted(keys, q)
+        found = idx < keys.size
+        found[found] = keys[idx[found]] == q[found]
+        return idx, found
+
+    # ------------------------------------------------------------------ TC
+    def _build_tc(self, b: float, graph: LinkGraph) -> None:
+        n = self._nn
+        live = self.selectors.cols["expiry"] >= b
+        sk = self.selectors.keys[live]
+        if sk.size == 0 or graph.n_links == 0:
+            return
+        # TC of o lists its MPR selectors: content keys o*N + selector.
+        origins = np.unique(sk // n)
+        rid = self._tc_round_id
+        self._tc_round_id += 1
+        self._tc_rounds[rid] = (sk, np.searchsorted(sk, np.arange(self.n + 1) * n))
+        sym_keys = self.links.keys
+        sym_t = self.links.cols["sym"]
+        sel_keys = sk
+        msg = origins.astype(np.int64)
+        fwd = origins.astype(np.int64)
+        t_send = b + self._jitter(origins.size)
+        reached = msg * n + msg
+        out_r, out_o, out_t = [], [], []
+        heard_r, heard_t = [], []
+        while msg.size:
+            pos, idx = _csr_gather(graph.indptr, fwd)
+            r = graph.indices[pos].astype(np.int64)
+            m, f, t = msg[idx], fwd[idx], t_send[idx]
+            heard_r.append(r)
+            heard_t.append(t)
+            li, lf = self._lookup(sym_keys, r * n + f)
+            ok = lf.copy()
+            ok[lf] = sym_t[li[lf]] >= t[lf]
+            ok &= r != m
+            mk = m * n + r
+            ok &= ~np.isin(mk, reached)
+            if not ok.any():
+                break
+            mk, r, f, t, m = mk[ok], r[ok], f[ok], t[ok], m[ok]
+            first = np.lexsort((t, mk))
+            keep = np.r_[True, mk[first][1:] != mk[first][:-1]]
+            sel = first[keep]
+            mk, r, f, t, m = mk[sel], r[sel], f[sel], t[sel], m[sel]
+            reached = np.union1d(reached, mk)
+            out_r.append(r)
+            out_o.append(m)
+            out_t.append(t)
+            # Retransmit when the copy came from an MPR selector of r.
+            _, relay = self._lookup(sel_keys, r * n + f)
+            msg, fwd = m[relay], r[relay]
+            t_send = t[relay] + self._jitter(int(relay.sum()))
+        if out_r:
+            self._q_r = np.concatenate([self._q_r, *out_r])
+            self._q_o = np.concatenate([self._q_o, *out_o])
+            self._q_t = np.concatenate([self._q_t, *out_t])
+            total = sum(a.size for a in out_r)
+            self._q_round = np.concatenate([self._q_round, np.full(total, rid)])
+        self._heard_r = np.concatenate([self._heard_r, *heard_r])
+        self._heard_t = np.concatenate([self._heard_t, *heard_t])
+
+    def _receive_tcs(self, r: np.ndarray, o: np.ndarray, t: np.ndarray, rounds: np.ndarray):
+        n, hold = self._nn, self.cfg.topology_hold_s
+        for rid in np.unique(rounds):
+            sel = rounds == rid
+            rr, oo, tt = r[sel], o[sel], t[sel]
+            keys, ptr = self._tc_rounds[int(rid)]
+            self.topology.drop_prefixes(rr * n + oo, n)
+            cpos, cidx = _csr_gather(ptr, oo)
+            a = keys[cpos] % n
+            self.topology.upsert((rr[cidx] * n + oo[cidx]) * n + a, expiry=tt[cidx] + hold)

@@ -1,0 +1,82 @@
+"""Sparse keyed tables: OLSR's information repositories as sorted arrays of integer keys.
+
+RFC 3626 keeps, per node, sets of tuples (link set, 2-hop set, MPR-selector set, topology set),
+each with an expiry time. Here every node's set is stored in one table for the whole swarm: a
+tuple is identified by an ``int64`` key that packs its node indices (for example
+``owner * N + neighbour``) and its fields are parallel ``float64`` columns. Keys are kept sorted,
+so look-ups are ``searchsorted`` and updates are vectorised merges: no per-tuple Python objects.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["KeyedTable"]
+
+
+class KeyedTable:
+    """A set of tuples with unique sorted ``int64`` keys and named ``float64`` columns.
+
+    Parameters
+    ----------
+    columns : sequence of str
+        Column names.
+
+    Notes
+    -----
+    This is the mutable working store of the OLSR engine; snapshots handed to users are
+    immutable copies.
+    """
+
+    def __init__(self, columns: tuple[str, ...]) -> None:
+        self.keys = np.zeros(0, dtype=np.int64)
+        self.cols = {c: np.zeros(0, dtype=float) for c in columns}
+
+    def __len__(self) -> int:
+        return int(self.keys.size)
+
+    def find(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Positions of ``keys`` in the table and a mask of which were found."""
+        keys = np.asarray(keys, dtype=np.int64)
+        idx = np.searchsorted(self.keys, keys)
+        found = idx < self.keys.size
+        found[found] = self.keys[idx[found]] == keys[found]
+        return idx, found
+
+    def get(self, column: str, keys: np.ndarray, default: float = -np.inf) -> np.ndarray:
+        """Values of ``column`` at ``keys`` (``default`` where absent)."""
+        idx, found = self.find(keys)
+        out = np.full(idx.shape, default, dtype=float)
+        out[found] = self.cols[column][idx[found]]
+        return out
+
+    def upsert(self, keys: np.ndarray, **values: np.ndarray) -> None:
+        """Insert or overwrite tuples. ``keys`` must be unique; columns not given keep their
+        value (existing tuples) or get ``-inf`` (new tuples)."""
+        keys = np.asarray(keys, dtype=np.int64)
+        idx, found = self.find(keys)
+        for name, v in values.items():
+            v = np.broadcast_to(np.asarray(v, dtype=float), keys.shape)
+            self.cols[name][idx[found]] = v[found]
+        new = ~found
+        if not new.any():
+            return
+        all_keys = np.concatenate([self.keys, keys[new]])
+        order = np.argsort(all_keys, kind="stable")
+        self.keys = all_keys[order]
+        for name, col in self.cols.items():
+            add = np.full(int(new.sum()), -np.inf)
+            if name in values:
+                add = np.broadcast_to(np.asarray(values[name], dtype=float), keys.shape)[new]
+            self.cols[name] = np.concatenate([col, add])[order]
+
+    def keep(self, mask: np.ndarray) -> None:
+        """Keep only the tuples where ``mask`` is true."""
+        self.keys = self.keys[mask]
+        for name in self.cols:
+            self.cols[name] = self.cols[name][mask]
+
+    def drop_prefixes(self, prefixes: np.ndarray, base: int) -> None:
+        """Remove every tuple whose ``key // base`` is in ``prefixes``."""
+        if self.keys.size and len(prefixes):
+            self.keep(~np.isin(self.keys // base, prefixes))
