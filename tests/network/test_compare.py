@@ -13,36 +13,38 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from swarmgames.errors import ConfigError, InputDataError, RunFolderError
-from swarmgames.network.compare import PositionsTrace, compare, make_backend, replay_hops
+from swarmgames.network.compare import compare
+from swarmgames.network.oracle import OracleProvider
 from swarmgames.network.recorded import RecordedProvider, read_recording
 from swarmgames.network.topology import TopologySnapshot
-from tests.network.disk_bfs import DiskBfs
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data", "ns3")
 
 
 class Scripted:
-    """Provider returning a given hop matrix per sample index (0 = no route)."""
+    """Provider whose tables at time t are ``matrices[round(t)]`` (the last one after the end);
+    hop 0 = no route."""
 
     def __init__(self, matrices: list[np.ndarray], name: str = "scripted") -> None:
         self.matrices = matrices
         self.name = name
         self._time = 0.0
-        self._k = 0
 
     @property
     def time(self) -> float:
         return self._time
 
+    def _snap(self) -> TopologySnapshot:
+        m = self.matrices[min(round(self._time), len(self.matrices) - 1)]
+        return TopologySnapshot.from_hop_matrix(self._time, m)
+
     def reset(self, positions, start_time=0.0):
-        self._time, self._k = start_time, 0
-        return TopologySnapshot.from_hop_matrix(start_time, np.zeros_like(self.matrices[0]))
+        self._time = start_time
+        return self._snap()
 
     def advance(self, to_time, positions):
         self._time = to_time
-        m = self.matrices[min(self._k, len(self.matrices) - 1)]
-        self._k += 1
-        return TopologySnapshot.from_hop_matrix(to_time, m)
+        return self._snap()
 
 
 def still_trace(n: int, duration: float) -> pd.DataFrame:
@@ -63,9 +65,10 @@ def test_agreement_counts_entries_either_backend_routes():
     assert result.agreement("b") == pytest.approx(4 / 6)
     assert result.agreement("b", within_2_hops=True) == pytest.approx(4 / 6)
     conf = result.confusion.set_index(["hops_reference", "hops_backend"])["count"]
-    assert conf[(2, 0)] == 1
-    assert conf[(2, 3)] == 1
-    assert conf[(1, 1)] == 4
+    # two samples (0 s and 1 s) of the same tables
+    assert conf[(2, 0)] == 2
+    assert conf[(2, 3)] == 2
+    assert conf[(1, 1)] == 8
 
 
 def test_within_two_hops_ignores_far_disagreements():
@@ -78,7 +81,7 @@ def test_within_two_hops_ignores_far_disagreements():
 
 def test_confusion_accounts_for_every_ordered_pair():
     rec = read_recording(os.path.join(DATA, "hex_expand"))
-    result = compare(rec.positions, [rec.provider("ns3"), DiskBfs()], 0.5)
+    result = compare(rec.positions, [rec.provider("ns3"), OracleProvider(rec.n_nodes)], 0.5)
     n = rec.n_nodes
     assert result.confusion["count"].sum() == result.sample_times.size * n * (n - 1)
 
@@ -86,11 +89,12 @@ def test_confusion_accounts_for_every_ordered_pair():
 def test_warmup_leaves_early_samples_out():
     empty = np.zeros((2, 2), dtype=int)
     linked = np.array([[0, 1], [1, 0]])
-    a = Scripted([linked] * 4, "a")
-    b = Scripted([empty, linked, linked, linked], "b")
+    a = Scripted([linked], "a")
+    b = Scripted([empty, linked], "b")
     trace = still_trace(2, 4.0)
-    assert compare(trace, [a, b], 1.0).agreement("b") == pytest.approx(6 / 8)
-    assert compare(trace, [a, b], 1.0, warmup_s=2.0).agreement("b") == 1.0
+    # samples at 0, 1, 2, 3, 4 s: b misses both entries at 0 s only
+    assert compare(trace, [a, b], 1.0).agreement("b") == pytest.approx(8 / 10)
+    assert compare(trace, [a, b], 1.0, warmup_s=1.0).agreement("b") == 1.0
 
 
 @settings(max_examples=25, deadline=None)
@@ -114,10 +118,10 @@ def test_agreement_is_symmetric(seed, n):
 
 def test_a_backend_agrees_with_itself():
     rec = read_recording(os.path.join(DATA, "waypoint_20"))
-    result = compare(rec.positions, [DiskBfs(), DiskBfs()], 1.0)
-    assert result.backends == ("bfs", "bfs#2")
+    result = compare(rec.positions, [OracleProvider(20), OracleProvider(20)], 1.0)
+    assert result.backends == ("oracle", "oracle#2")
     assert result.agreement() == 1.0
-    assert set(result.wall_time_s) == {"bfs", "bfs#2"}
+    assert set(result.wall_time_s) == {"oracle", "oracle#2"}
 
 
 # -- recorded ns-3 runs ------------------------------------------------------------------------
@@ -127,7 +131,12 @@ def test_a_backend_agrees_with_itself():
 def test_recorded_ns3_equals_bfs_on_static_layouts_after_30s(name):
     # REFERENCE.md section 4: settled ns-3 routes equal BFS on the 368.84 m disk graph
     rec = read_recording(os.path.join(DATA, name))
-    result = compare(rec.positions, [rec.provider("ns3"), DiskBfs()], rec.sample_every, warmup_s=30)
+    result = compare(
+        rec.positions,
+        [rec.provider("ns3"), OracleProvider(rec.n_nodes)],
+        rec.sample_every,
+        warmup_s=30,
+    )
     assert result.agreement() == 1.0
     assert result.per_time.loc[result.per_time["t"] >= 30, "entries"].gt(0).all()
 
@@ -138,7 +147,9 @@ def test_instant_bfs_lags_recorded_ns3_on_moving_traces(name):
     # disagrees with them on a sizeable share of entries: measured 81 % (waypoint_20, 1 s
     # samples) and 89 % (hex_expand) agreement with the recorded ns-3 runs.
     rec = read_recording(os.path.join(DATA, name))
-    result = compare(rec.positions, [rec.provider("ns3"), DiskBfs()], rec.sample_every)
+    result = compare(
+        rec.positions, [rec.provider("ns3"), OracleProvider(rec.n_nodes)], rec.sample_every
+    )
     assert 0.6 < result.agreement() < 0.95
 
 
@@ -165,77 +176,65 @@ def test_read_recording_needs_all_files(tmp_path):
         read_recording(tmp_path)
 
 
-# -- traces ------------------------------------------------------------------------------------
-
-
-def test_trace_holds_positions_until_next_row():
-    frame = pd.DataFrame(
-        {"t": [0.0, 0.0, 2.0, 3.0], "node": [0, 1, 1, 0], "x": [0, 5, 7, 9], "y": 0, "z": 0}
-    )
-    trace = PositionsTrace.from_frame(frame)
-    np.testing.assert_array_equal(trace.times, [0.0, 2.0, 3.0])
-    np.testing.assert_array_equal(trace.positions[:, :, 0], [[0, 5], [0, 7], [9, 7]])
-    np.testing.assert_allclose(trace.sample_times(1.0), [1.0, 2.0, 3.0])
-
-
-@pytest.mark.parametrize(
-    ("frame", "match"),
-    [
-        (pd.DataFrame({"t": [0.0], "node": [0], "x": [0.0], "y": [0.0]}), "missing columns"),
-        (pd.DataFrame({"t": [0.0], "node": [0], "x": [np.nan], "y": 0, "z": 0}), "row 2: .*finite"),
-        (pd.DataFrame({"t": [0.0, 0.0], "node": [0, 0], "x": 0, "y": 0, "z": 0}), "duplicate"),
-        (pd.DataFrame({"t": [0.0, 1.0], "node": [0, 1], "x": 0, "y": 0, "z": 0}), "node 1 has no"),
-        (pd.DataFrame({"t": [0.0], "node": [-1], "x": 0, "y": 0, "z": 0}), "integer >= 0"),
-    ],
-)
-def test_bad_traces_name_the_problem(frame, match):
-    with pytest.raises(InputDataError, match=match):
-        PositionsTrace.from_frame(frame)
-
-
-def test_replay_hops_samples_every_period():
-    rec = read_recording(os.path.join(DATA, "static_7"))
-    hops = replay_hops(DiskBfs(), PositionsTrace.from_frame(rec.positions), 10.0)
-    np.testing.assert_allclose(np.unique(hops["t"]), [10.0, 20.0, 30.0, 40.0])
-    assert list(hops.columns) == ["t", "node", "dest", "hops"]
-
-
 # -- errors and output -------------------------------------------------------------------------
 
 
 def test_bad_arguments():
     trace = still_trace(2, 1.0)
     with pytest.raises(ValueError, match="at least two"):
-        compare(trace, [DiskBfs()])
+        compare(trace, [OracleProvider(2)])
     with pytest.raises(ValueError, match=r"sample_every must be > 0 \(got 0"):
-        compare(trace, [DiskBfs(), DiskBfs()], 0.0)
+        compare(trace, [OracleProvider(2), OracleProvider(2)], 0.0)
     with pytest.raises(ValueError, match="at most the trace duration"):
-        compare(trace, [DiskBfs(), DiskBfs()], 5.0)
+        compare(trace, [OracleProvider(2), OracleProvider(2)], 5.0)
     with pytest.raises(ValueError, match="warmup_s must be >= 0"):
-        compare(trace, [DiskBfs(), DiskBfs()], warmup_s=-1.0)
+        compare(trace, [OracleProvider(2), OracleProvider(2)], warmup_s=-1.0)
 
 
 def test_unknown_backend_name_suggests_close_match():
     with pytest.raises(ConfigError, match="did you mean 'olsr'"):
-        make_backend("olsrr")
+        compare(still_trace(2, 1.0), ["oracle", "olsrr"])
 
 
 def test_write_puts_tables_plot_and_summary_in_run_folder(tmp_path):
     rec = read_recording(os.path.join(DATA, "hex_expand"))
-    result = compare(rec.positions, [rec.provider("ns3"), DiskBfs()], 0.5)
+    result = compare(rec.positions, [rec.provider("ns3"), OracleProvider(rec.n_nodes)], 0.5)
     files = result.write(tmp_path / "cmp")
     names = {f.name for f in files}
     assert names == {
         "per_time.csv",
         "confusion.csv",
         "hops_ns3.csv",
-        "hops_bfs.csv",
+        "hops_oracle.csv",
         "agreement.png",
         "summary.json",
     }
     summary = json.loads((tmp_path / "cmp" / "summary.json").read_text())
-    assert summary["agreement"]["bfs"]["overall"] == pytest.approx(result.agreement())
+    assert summary["agreement"]["oracle"]["overall"] == pytest.approx(result.agreement())
     per_time = pd.read_csv(tmp_path / "cmp" / "per_time.csv")
-    assert len(per_time) == result.sample_times.size
+    assert len(per_time) == result.sample_times.size == 361  # 0, 0.5, ..., 180 s
     with pytest.raises(RunFolderError):
         result.write(tmp_path / "cmp")
+
+
+# -- the built-in OLSR model against recorded ns-3 runs ----------------------------------------
+
+
+@pytest.mark.parametrize("name", ["static_7", "static_20", "static_50"])
+def test_olsr_equals_recorded_ns3_on_static_layouts_after_30s(name):
+    # issue acceptance: on static layouts, after 30 s, olsr and ns3 agree on 100 % of routes
+    rec = read_recording(os.path.join(DATA, name))
+    result = compare(rec.positions, [rec.provider("ns3"), "olsr"], rec.sample_every, seed=1,
+                     warmup_s=30.0)  # fmt: skip
+    assert result.agreement() == 1.0
+
+
+@pytest.mark.parametrize("name", ["waypoint_20", "hex_expand"])
+def test_olsr_tracks_recorded_ns3_on_moving_traces_like_ns3_tracks_itself(name):
+    # Target: ns-3's own run-to-run agreement, about 97 % overall and 99 % within 2 hops
+    # (REFERENCE.md section 4 / issue 3). Measured here: waypoint_20 99.4 % / 99.98 %,
+    # hex_expand 99.2 % (seed 1); ns-3 against itself (runs 1 and 2) gives 99.0 % / 99.9 %.
+    rec = read_recording(os.path.join(DATA, name))
+    result = compare(rec.positions, [rec.provider("ns3"), "olsr"], rec.sample_every, seed=1)
+    assert result.agreement() >= 0.97
+    assert result.agreement(within_2_hops=True) >= 0.99

@@ -12,11 +12,13 @@ import pytest
 from swarmgames.config import NetworkConfig, OlsrConfig, RadioConfig
 from swarmgames.errors import BackendUnavailableError, ConfigError
 from swarmgames.network import ns3_import
-from swarmgames.network.compare import PositionsTrace, compare, make_backend
+from swarmgames.network.compare import compare
+from swarmgames.network.factory import make_provider
 from swarmgames.network.ns3_backend import check_ns3_config
+from swarmgames.network.oracle import OracleProvider
 from swarmgames.network.provider import NeighbourhoodProvider
 from swarmgames.network.recorded import read_recording
-from tests.network.disk_bfs import DiskBfs
+from swarmgames.network.trace import PositionTrace
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data", "ns3")
 
@@ -66,7 +68,7 @@ def test_missing_package_says_how_to_install(monkeypatch):
 def test_choosing_ns3_without_package_is_a_clear_import_error(monkeypatch):
     without_ns(monkeypatch)
     with pytest.raises(ImportError, match=r"swarmgames\[ns3\]"):
-        make_backend("ns3")
+        make_provider(NetworkConfig(backend="ns3"), 3)
 
 
 def test_quiet_stderr_drops_only_cppyy_noise(capfd):
@@ -195,7 +197,7 @@ def test_next_hop_is_a_one_hop_neighbour(ns3):
 @pytest.mark.ns3
 def test_same_seed_same_tables_and_many_scenarios_in_one_process(ns3):
     rec = read_recording(os.path.join(DATA, "hex_expand"))
-    trace = PositionsTrace.from_frame(rec.positions[rec.positions["t"] <= 40.0])
+    trace = PositionTrace.from_frame(rec.positions[rec.positions["t"] <= 40.0])
     a, b = ns3(seed=11), ns3(seed=11)
     result = compare(trace, [a, b], 0.5)
     assert result.agreement() == 1.0
@@ -236,5 +238,40 @@ def test_time_offset_and_bad_calls(ns3):
 def test_static_layouts_equal_bfs_after_30s(ns3, name):
     # REFERENCE.md section 4: after settling, ns-3 hop counts equal BFS on the 368.84 m disk graph
     rec = read_recording(os.path.join(DATA, name))
-    result = compare(rec.positions, [DiskBfs(), ns3(seed=8)], 5.0, warmup_s=30.0)
+    result = compare(rec.positions, [OracleProvider(rec.n_nodes), ns3(seed=8)], 5.0, warmup_s=30.0)
     assert result.agreement() == 1.0
+
+
+@pytest.mark.ns3
+def test_figure1_with_ns3_backend_matches_reference(ns3):
+    from swarmgames.experiments.fig1 import reproduce_fig1
+
+    # REFERENCE.md section 4: line d=100 -> 4.286 / 1.286, d=185 -> 1.714 / 2.667, d=369 -> no
+    # links; hexagon d=200 -> 5.143 / 1.143
+    frame = reproduce_fig1("ns3", spacings=[100.0, 185.0, 200.0, 369.0], seed=0).to_frame()
+    got = frame.set_index(["layout", "spacing_m"])
+    assert got.loc[("line", 100.0), "mean_neighbours"] == pytest.approx(4.286, abs=1e-3)
+    assert got.loc[("line", 185.0), "mean_hops"] == pytest.approx(2.667, abs=1e-3)
+    assert got.loc[("line", 369.0), "routes"] == 0
+    assert got.loc[("hexagon", 200.0), "mean_neighbours"] == pytest.approx(5.143, abs=1e-3)
+    assert got.loc[("hexagon", 200.0), "mean_hops"] == pytest.approx(1.143, abs=1e-3)
+
+
+@pytest.mark.ns3
+def test_factory_builds_the_ns3_provider(ns3):
+    net = make_provider(NetworkConfig(backend="ns3"), 3, seed=0)
+    assert isinstance(net, ns3)
+    with pytest.raises(ValueError, match="positions must have 3 rows"):
+        net.reset(line(4, 10.0))
+
+
+@pytest.mark.ns3
+def test_recorder_reproduces_committed_static_recording(ns3, tmp_path):
+    # ns-3 is deterministic for a given run number: re-recording static_7 gives the committed data
+    from swarmgames.experiments.record_ns3 import record
+
+    folder = record("static_7", tmp_path, run=1)
+    committed = read_recording(os.path.join(DATA, "static_7"))
+    fresh = read_recording(folder)
+    assert fresh.hops.equals(committed.hops)
+    assert fresh.positions.equals(committed.positions)

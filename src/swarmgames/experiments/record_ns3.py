@@ -40,7 +40,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from swarmgames.network.compare import PositionsTrace, replay_hops
+from swarmgames.network.replay import replay
+from swarmgames.network.trace import PositionTrace
 
 __all__ = ["SCENARIOS", "hex_expand", "main", "random_waypoint", "record", "static_layout"]
 
@@ -127,10 +128,10 @@ def record(name: str, out: Path, run: int = 1) -> Path:
 
     factory, sample = SCENARIOS[name]
     positions = factory()
-    trace = PositionsTrace.from_frame(positions)
-    provider = Ns3Provider(run=run)
+    trace = PositionTrace.from_frame(positions)
+    provider = Ns3Provider(n_nodes=trace.n_nodes, run=run)
     start = time.perf_counter()
-    hops = replay_hops(provider, trace, sample)
+    hops = replay(trace, provider, sample).hops
     wall = time.perf_counter() - start
     provider.close()
     folder = out / name

@@ -39,178 +39,21 @@ import numpy as np
 import pandas as pd
 
 from swarmgames.config import NetworkConfig
-from swarmgames.errors import ConfigError, InputDataError, NotAvailableError
+from swarmgames.errors import ConfigError
+from swarmgames.network.factory import BACKENDS
 from swarmgames.network.provider import NeighbourhoodProvider
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.network.replay import replay
+from swarmgames.network.trace import PositionTrace, read_positions
+from swarmgames.network.validation import as_generator
 
-__all__ = [
-    "BACKENDS",
-    "CompareResult",
-    "PositionsTrace",
-    "compare",
-    "make_backend",
-    "replay_hops",
-]
-
-#: Backend names accepted by :func:`make_backend`.
-BACKENDS = ("olsr", "oracle", "disk", "knn", "ns3")
+__all__ = ["CompareResult", "compare"]
 
 
-@dataclass(frozen=True)
-class PositionsTrace:
-    """A positions trace in dense, piecewise-constant form.
-
-    Attributes
-    ----------
-    times : ndarray, shape (T,)
-        Increasing times at which some robot's position changes, seconds; ``times[0]`` is the
-        start of the trace and ``times[-1]`` its end.
-    positions : ndarray, shape (T, N, 3)
-        ``positions[k]`` holds from ``times[k]`` until ``times[k + 1]``, metres.
-    """
-
-    times: np.ndarray
-    positions: np.ndarray
-
-    @property
-    def n_nodes(self) -> int:
-        """Number of robots."""
-        return int(self.positions.shape[1])
-
-    @classmethod
-    def from_frame(cls, frame: pd.DataFrame, source: str = "positions") -> PositionsTrace:
-        """Build from ``t, node, x, y, z`` rows (a row holds from ``t`` until the node's next
-        row); every node needs a row at the first time.
-
-        Raises
-        ------
-        InputDataError
-            On missing columns, non-finite values, duplicate (t, node) rows, negative node ids or
-            a node without a row at the first time.
-        """
-        cols = ["t", "node", "x", "y", "z"]
-        missing = [c for c in cols if c not in frame.columns]
-        if missing:
-            raise InputDataError(f"{source}: missing columns {missing} (need {cols})")
-        values = frame[cols].to_numpy(dtype=float)
-        bad = ~np.isfinite(values).all(axis=1)
-        if bad.any():
-            row = int(np.nonzero(bad)[0][0])
-            raise InputDataError(
-                f"{source} row {row + 2}: values must be finite (got {values[row]})"
-            )
-        if (values[:, 1] < 0).any() or (values[:, 1] != np.round(values[:, 1])).any():
-            row = int(
-                np.nonzero((values[:, 1] < 0) | (values[:, 1] != np.round(values[:, 1])))[0][0]
-            )
-            raise InputDataError(f"{source} row {row + 2}: node must be an integer >= 0")
-        df = frame[cols].astype({"node": int})
-        dup = df.duplicated(["t", "node"])
-        if dup.any():
-            row = int(np.nonzero(dup.to_numpy())[0][0])
-            raise InputDataError(f"{source} row {row + 2}: duplicate (t, node) row")
-        wide = df.pivot(index="t", columns="node", values=["x", "y", "z"]).sort_index()
-        nodes = np.arange(int(df["node"].max()) + 1)
-        wide = wide.reindex(columns=pd.MultiIndex.from_product([["x", "y", "z"], nodes]))
-        first = wide.iloc[0]
-        if first.isna().any():
-            node = int(first[first.isna()].index[0][1])
-            raise InputDataError(
-                f"{source}: node {node} has no row at the first time t = {wide.index[0]:g}"
-            )
-        wide = wide.ffill()
-        pos = wide.to_numpy(dtype=float).reshape(len(wide), 3, nodes.size).transpose(0, 2, 1)
-        return cls(wide.index.to_numpy(dtype=float), np.ascontiguousarray(pos))
-
-    @classmethod
-    def read_csv(cls, path: str | Path) -> PositionsTrace:
-        """Read a ``positions.csv`` file (columns ``t, node, x, y, z``)."""
-        path = Path(path)
-        if not path.is_file():
-            raise InputDataError(f"positions file not found: {path}")
-        return cls.from_frame(pd.read_csv(path), source=str(path))
-
-    def sample_times(self, every: float) -> np.ndarray:
-        """Sample times ``times[0] + k every`` for ``k >= 1`` up to the end of the trace."""
-        t0, t1 = float(self.times[0]), float(self.times[-1])
-        k = np.arange(1, math.floor((t1 - t0) / every + 1e-9) + 1)
-        return np.round(t0 + k * every, 9)
-
-
-def make_backend(
-    name: str,
-    config: NetworkConfig | None = None,
-    seed: int | np.random.Generator | None = None,
-) -> NeighbourhoodProvider:
-    """Create the neighbourhood provider called ``name`` (one of :data:`BACKENDS`).
-
-    Raises
-    ------
-    ConfigError
-        For an unknown name (the message suggests close matches).
-    BackendUnavailableError
-        For ``"ns3"`` without the optional ``ns3`` package.
-    """
-    config = NetworkConfig() if config is None else config
-    if name == "ns3":
-        from swarmgames.network.ns3_backend import Ns3Provider
-
-        return Ns3Provider(config, seed=seed)
+def _check_name(name: str) -> None:
     if name not in BACKENDS:
         close = difflib.get_close_matches(name, BACKENDS, n=2)
         hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
         raise ConfigError(f"backend must be one of {', '.join(BACKENDS)} (got {name!r}){hint}")
-    try:
-        from swarmgames.network import providers  # built-in network layer
-    except ImportError:
-        raise NotAvailableError(f"backend {name!r} is not available in this build") from None
-    return providers.make_provider(name, config, seed=seed)
-
-
-def _replay(
-    provider: NeighbourhoodProvider, trace: PositionsTrace, samples: np.ndarray
-) -> list[TopologySnapshot]:
-    """Drive ``provider`` along ``trace`` and read its tables at every sample time."""
-    changes = trace.times
-    events = np.union1d(changes[1:], samples)
-    is_sample = np.isin(events, samples)
-    k = 0  # index of the positions in force
-    provider.reset(trace.positions[0], float(changes[0]))
-    run_until = getattr(provider, "run_until", None)
-    out = []
-    for t, sample in zip(events.tolist(), is_sample.tolist(), strict=True):
-        if sample:
-            out.append(provider.advance(t, trace.positions[k]))
-        elif run_until is not None:
-            run_until(t, trace.positions[k])
-        else:
-            provider.advance(t, trace.positions[k])
-        while k + 1 < changes.size and changes[k + 1] <= t + 1e-9:
-            k += 1
-    return out
-
-
-def replay_hops(
-    provider: NeighbourhoodProvider, trace: PositionsTrace, sample_every: float
-) -> pd.DataFrame:
-    """Replay ``trace`` through ``provider`` and return its tables every ``sample_every``
-    seconds as rows ``t, node, dest, hops`` (reachable destinations only)."""
-    if not (math.isfinite(sample_every) and sample_every > 0):
-        raise ValueError(f"sample_every must be > 0 (got {sample_every})")
-    samples = trace.sample_times(sample_every)
-    return _hops_frame(_replay(provider, trace, samples), samples)
-
-
-def _hops_frame(snaps: list[TopologySnapshot], samples: np.ndarray) -> pd.DataFrame:
-    sizes = [s.n_entries for s in snaps]
-    return pd.DataFrame(
-        {
-            "t": np.repeat(samples, sizes),
-            "node": np.concatenate([s.owner for s in snaps]) if snaps else [],
-            "dest": np.concatenate([s.dest for s in snaps]) if snaps else [],
-            "hops": np.concatenate([s.hops for s in snaps]) if snaps else [],
-        }
-    )
 
 
 @dataclass(frozen=True)
@@ -351,12 +194,12 @@ class CompareResult:
         return files
 
 
-def _labels(providers: Sequence[NeighbourhoodProvider]) -> tuple[str, ...]:
+def _labels(names: Sequence[str]) -> tuple[str, ...]:
     seen: dict[str, int] = {}
     out = []
-    for p in providers:
-        seen[p.name] = seen.get(p.name, 0) + 1
-        out.append(p.name if seen[p.name] == 1 else f"{p.name}#{seen[p.name]}")
+    for name in names:
+        seen[name] = seen.get(name, 0) + 1
+        out.append(name if seen[name] == 1 else f"{name}#{seen[name]}")
     return tuple(out)
 
 
@@ -378,7 +221,7 @@ def _pair(ref: pd.DataFrame, other: pd.DataFrame, samples: np.ndarray, n: int):
 
 
 def compare(
-    trace: PositionsTrace | pd.DataFrame | str | Path,
+    trace: PositionTrace | pd.DataFrame | str | Path,
     backends: Sequence[str | NeighbourhoodProvider],
     sample_every: float = 0.5,
     *,
@@ -390,10 +233,11 @@ def compare(
 
     Parameters
     ----------
-    trace : PositionsTrace, DataFrame or path
+    trace : PositionTrace, DataFrame or path
         Positions trace (``t, node, x, y, z``; a row holds from ``t`` until the node's next row).
     backends : sequence of str or NeighbourhoodProvider
-        At least two; names (see :data:`BACKENDS`) are created with :func:`make_backend`. The
+        At least two; names (``olsr``, ``oracle``, ``disk``, ``knn``, ``ns3``) are built from
+        ``config`` by :func:`~swarmgames.network.factory.make_provider`. The
         first is the reference the others are compared with. Backends run one after the other,
         so two ns-3 providers (two seeds) can be compared in one process.
     sample_every : float, default 0.5
@@ -423,31 +267,29 @@ def compare(
         raise ValueError(f"sample_every must be > 0 (got {sample_every})")
     if not (math.isfinite(warmup_s) and warmup_s >= 0):
         raise ValueError(f"warmup_s must be >= 0 (got {warmup_s})")
+    for b in backends:
+        if isinstance(b, str):
+            _check_name(b)
     if isinstance(trace, (str, Path)):
-        trace = PositionsTrace.read_csv(trace)
+        trace = read_positions(trace)
     elif isinstance(trace, pd.DataFrame):
-        trace = PositionsTrace.from_frame(trace)
-    samples = trace.sample_times(sample_every)
-    if samples.size == 0:
+        trace = PositionTrace.from_frame(trace)
+    if sample_every > trace.end - trace.start:
         raise ValueError(
-            f"sample_every must be at most the trace duration "
-            f"{trace.times[-1] - trace.times[0]:g} s (got {sample_every})"
+            f"sample_every must be at most the trace duration {trace.end - trace.start:g} s "
+            f"(got {sample_every})"
         )
-    rng = np.random.default_rng(seed)
-    providers = [
-        make_backend(b, config, seed=np.random.default_rng(rng.integers(2**63)))
-        if isinstance(b, str)
-        else b
-        for b in backends
-    ]
-    labels = _labels(providers)
+    rng = as_generator(seed)
+    labels = _labels([b if isinstance(b, str) else b.name for b in backends])
     hops: dict[str, pd.DataFrame] = {}
     wall: dict[str, float] = {}
-    for label, provider in zip(labels, providers, strict=True):
+    for label, backend in zip(labels, backends, strict=True):
+        child = np.random.default_rng(rng.integers(2**63))
         start = _time.perf_counter()
-        snaps = _replay(provider, trace, samples)
+        result = replay(trace, backend, sample_every, seed=child, config=config)
         wall[label] = _time.perf_counter() - start
-        hops[label] = _hops_frame(snaps, samples)
+        hops[label] = result.hops
+    samples = result.summary["t"].to_numpy(dtype=float)
 
     t0 = float(trace.times[0])
     per_rows, conf_rows = [], []

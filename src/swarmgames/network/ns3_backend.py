@@ -57,6 +57,7 @@ from swarmgames.config import NetworkConfig, OlsrConfig, RadioConfig
 from swarmgames.errors import ConfigError
 from swarmgames.network.ns3_import import load_ns3, quiet_stderr
 from swarmgames.network.topology import TopologySnapshot
+from swarmgames.network.validation import as_generator, check_positions, check_time
 
 __all__ = ["Ns3Provider", "check_ns3_config"]
 
@@ -103,22 +104,6 @@ def check_ns3_config(config: NetworkConfig) -> None:
         raise ConfigError(msg, problems)
 
 
-def _as_positions(positions: Any, n: int | None = None) -> np.ndarray:
-    p = np.asarray(positions, dtype=float)
-    if p.ndim != 2 or p.shape[1] not in (2, 3):
-        raise ValueError(f"positions must have shape (N, 3) or (N, 2) (got {p.shape})")
-    if p.shape[0] < 1:
-        raise ValueError(f"positions must hold at least one robot (got {p.shape[0]})")
-    if n is not None and p.shape[0] != n:
-        raise ValueError(f"positions must have {n} rows, one per robot (got {p.shape[0]})")
-    if not np.isfinite(p).all():
-        row = int(np.nonzero(~np.isfinite(p).all(axis=1))[0][0])
-        raise ValueError(f"positions must be finite (got {p[row].tolist()} for robot {row})")
-    if p.shape[1] == 2:
-        p = np.column_stack([p, np.zeros(p.shape[0])])
-    return p
-
-
 class Ns3Provider:
     """Neighbourhoods from ns-3's OLSR routing tables (a :class:`NeighbourhoodProvider`).
 
@@ -126,6 +111,8 @@ class Ns3Provider:
     ----------
     config : NetworkConfig, optional
         Radio and OLSR settings (``config.radio``, ``config.olsr``); defaults as in the paper.
+    n_nodes : int, optional
+        Number of robots; if given, ``reset`` checks the positions against it.
     seed : int, numpy.random.Generator or None
         Source of every random choice: each ``reset`` draws ns-3's run number (OLSR jitter,
         Nakagami fading) and the shadowing losses from it. Equal seeds give equal runs.
@@ -149,10 +136,11 @@ class Ns3Provider:
     --------
     >>> import numpy as np
     >>> from swarmgames.network.ns3_backend import Ns3Provider
+    >>> positions = np.array([[0.0, 0, 0], [300, 0, 0], [600, 0, 0]])
     >>> net = Ns3Provider(seed=1)  # doctest: +SKIP
-    >>> net.reset(np.array([[0, 0, 0], [300, 0, 0], [600, 0, 0.0]]))  # doctest: +SKIP
-    >>> net.advance(30.0, positions).hop_matrix()[0]  # doctest: +SKIP
-    array([0, 1, 2], dtype=int16)
+    >>> _ = net.reset(positions)  # doctest: +SKIP
+    >>> net.advance(30.0, positions).hop_matrix()[0].tolist()  # doctest: +SKIP
+    [0, 1, 2]
     """
 
     name = "ns3"
@@ -160,18 +148,22 @@ class Ns3Provider:
     def __init__(
         self,
         config: NetworkConfig | None = None,
-        *,
+        n_nodes: int | None = None,
         seed: int | np.random.Generator | None = None,
+        *,
         run: int | None = None,
     ) -> None:
         self.config = NetworkConfig() if config is None else config
         if not isinstance(self.config, NetworkConfig):
             raise TypeError(f"config must be a NetworkConfig (got {type(self.config).__name__})")
         check_ns3_config(self.config)
+        if n_nodes is not None and int(n_nodes) < 1:
+            raise ValueError(f"n_nodes must be >= 1 (got {n_nodes})")
+        self.n_nodes = None if n_nodes is None else int(n_nodes)
         if run is not None and not (isinstance(run, (int, np.integer)) and run >= 1):
             raise ValueError(f"run must be an integer >= 1 (got {run!r})")
         self._run = None if run is None else int(run)
-        self._rng = np.random.default_rng(seed)
+        self._rng = as_generator(seed)
         self._ns = load_ns3()
         self._token = next(_tokens)
         self._n = 0
@@ -200,7 +192,7 @@ class Ns3Provider:
         Destroys any previous scenario of this process (of this or another provider).
         Returns the (empty) routing tables at ``start_time``.
         """
-        p = _as_positions(positions)
+        p = check_positions(positions, self.n_nodes)
         if not math.isfinite(start_time):
             raise ValueError(f"start_time must be finite (got {start_time})")
         with quiet_stderr():
@@ -211,19 +203,17 @@ class Ns3Provider:
     def advance(self, to_time: float, positions: np.ndarray) -> TopologySnapshot:
         """Run ns-3 until ``to_time`` with robots held at ``positions`` and return every
         robot's routing table at ``to_time``."""
-        self.run_until(to_time, positions)
+        self.step(to_time, positions)
         return self.snapshot()
 
     # -- finer-grained control -----------------------------------------------------------------
 
-    def run_until(self, to_time: float, positions: np.ndarray) -> None:
+    def step(self, to_time: float, positions: np.ndarray) -> None:
         """Like :meth:`advance` without reading the tables (cheaper for fine mobility steps)."""
         if not self._n:
             raise RuntimeError("call reset(positions) before advancing the ns3 provider")
-        now = self.time
-        if not (math.isfinite(to_time) and to_time >= now - 1e-9):
-            raise ValueError(f"to_time must be >= the current time {now:g} s (got {to_time})")
-        p = _as_positions(positions, self._n)
+        to_time = check_time(to_time, self.time - 1e-9)
+        p = check_positions(positions, self._n)
         ns = self._ns
         self._place(p)
         stop_ns = round((to_time - self._offset) * 1e9)
