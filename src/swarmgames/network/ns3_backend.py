@@ -167,24 +167,21 @@ class Ns3Provider:
         self._ns = load_ns3()
         self._token = next(_tokens)
         self._n = 0
-        self._offset = 0.0
+        self._offset = self._time = 0.0
         self._mobility: list[Any] = []
         self._routing: list[Any] = []
         self._addresses = np.empty(0, dtype=np.int64)
         self.run_number: int | None = None
 
     def __repr__(self) -> str:
-        return f"Ns3Provider(n_nodes={self._n}, time={self._offset if not self._n else self.time})"
+        return f"Ns3Provider(n_nodes={self._n or self.n_nodes}, run={self.run_number})"
 
     # -- NeighbourhoodProvider -----------------------------------------------------------------
 
     @property
     def time(self) -> float:
-        """Current simulated time, in seconds (``start_time`` + ns-3's clock)."""
-        if not self._n:
-            return self._offset
-        self._check_owner()
-        return self._offset + self._ns.Simulator.Now().GetSeconds()
+        """Current simulated time, in seconds (ns-3's clock runs from 0 at ``start_time``)."""
+        return self._time
 
     def reset(self, positions: np.ndarray, start_time: float = 0.0) -> TopologySnapshot:
         """Build a fresh ns-3 scenario with robots at ``positions`` (shape (N, 3), metres).
@@ -197,7 +194,7 @@ class Ns3Provider:
             raise ValueError(f"start_time must be finite (got {start_time})")
         with quiet_stderr():
             self._build(p)
-        self._offset = float(start_time)
+        self._offset = self._time = float(start_time)
         return self.snapshot()
 
     def advance(self, to_time: float, positions: np.ndarray) -> TopologySnapshot:
@@ -212,7 +209,8 @@ class Ns3Provider:
         """Like :meth:`advance` without reading the tables (cheaper for fine mobility steps)."""
         if not self._n:
             raise RuntimeError("call reset(positions) before advancing the ns3 provider")
-        to_time = check_time(to_time, self.time - 1e-9)
+        self._check_owner()
+        to_time = check_time(to_time, self._time - 1e-9)
         p = check_positions(positions, self._n)
         ns = self._ns
         self._place(p)
@@ -222,6 +220,7 @@ class Ns3Provider:
             with quiet_stderr():
                 ns.Simulator.Stop(ns.NanoSeconds(delay))
                 ns.Simulator.Run()
+        self._time = max(self._time, float(to_time))
 
     def snapshot(self) -> TopologySnapshot:
         """Every robot's current OLSR routing table as a :class:`TopologySnapshot`."""
