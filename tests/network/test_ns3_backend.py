@@ -65,6 +65,11 @@ def test_missing_package_says_how_to_install(monkeypatch):
         ns3_import.load_ns3()
 
 
+def test_availability_check_does_not_import(monkeypatch):
+    without_ns(monkeypatch)
+    assert ns3_import.ns3_available() is False
+
+
 def test_choosing_ns3_without_package_is_a_clear_import_error(monkeypatch):
     without_ns(monkeypatch)
     with pytest.raises(ImportError, match=r"swarmgames\[ns3\]"):
