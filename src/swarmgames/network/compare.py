@@ -40,7 +40,7 @@ import pandas as pd
 
 from swarmgames.config import NetworkConfig
 from swarmgames.errors import ConfigError
-from swarmgames.network.factory import BACKENDS
+from swarmgames.network.factory import BACKENDS, make_provider
 from swarmgames.network.provider import NeighbourhoodProvider
 from swarmgames.network.replay import replay
 from swarmgames.network.trace import PositionTrace, read_positions
@@ -81,7 +81,8 @@ class CompareResult:
         ``backend, hops_reference, hops_backend, count`` pooled over the overall samples;
         hop count 0 means "no route".
     wall_time_s : dict of str to float
-        Wall-clock time of each backend's replay, seconds.
+        Wall-clock time of each backend's replay, seconds (building the provider, which for
+        ns-3 includes importing it, is not counted).
     """
 
     backends: tuple[str, ...]
@@ -93,6 +94,10 @@ class CompareResult:
     per_time: pd.DataFrame
     confusion: pd.DataFrame
     wall_time_s: dict[str, float] = field(default_factory=dict)
+
+    def to_frame(self) -> pd.DataFrame:
+        """Per-time agreement (a copy of :attr:`per_time`)."""
+        return self.per_time.copy()
 
     @property
     def reference(self) -> str:
@@ -284,9 +289,13 @@ def compare(
     hops: dict[str, pd.DataFrame] = {}
     wall: dict[str, float] = {}
     for label, backend in zip(labels, backends, strict=True):
-        child = np.random.default_rng(rng.integers(2**63))
+        if isinstance(backend, str):
+            cfg = (config or NetworkConfig()).model_copy(update={"backend": backend})
+            child = np.random.default_rng(rng.integers(2**63))
+            # OLSR with TCs, as replay builds it, so that routes of any length are compared.
+            backend = make_provider(cfg, trace.n_nodes, child, hello_only=False)
         start = _time.perf_counter()
-        result = replay(trace, backend, sample_every, seed=child, config=config)
+        result = replay(trace, backend, sample_every)
         wall[label] = _time.perf_counter() - start
         hops[label] = result.hops
     samples = result.summary["t"].to_numpy(dtype=float)
