@@ -56,7 +56,7 @@ def _check_name(name: str) -> None:
         raise ConfigError(f"backend must be one of {', '.join(BACKENDS)} (got {name!r}){hint}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class CompareResult:
     """Outcome of :func:`compare`.
 
@@ -263,8 +263,21 @@ def compare(
     ------
     ValueError
         If fewer than two backends are given or ``sample_every`` / ``warmup_s`` is invalid.
+    ConfigError
+        For an unknown backend name (the message suggests close matches).
+    BackendUnavailableError
+        For ``"ns3"`` without the optional ``ns3`` package.
     InputDataError
         If the trace is malformed.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> trace = pd.DataFrame({"t": [0.0, 0.0, 10.0, 10.0], "node": [0, 1, 0, 1],
+    ...                       "x": [0.0, 300.0, 0.0, 300.0], "y": 0.0, "z": 0.0})
+    >>> result = compare(trace, ["oracle", "olsr"], sample_every=1.0, seed=0, warmup_s=5.0)
+    >>> result.agreement()
+    1.0
     """
     if len(backends) < 2:
         raise ValueError(f"backends must name at least two backends (got {len(backends)})")
