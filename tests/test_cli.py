@@ -101,3 +101,101 @@ def test_errors_map_to_documented_exit_codes(runner, error, code):
     res = runner.invoke(failing, [])
     assert res.exit_code == code
     assert "Error:" in res.output and "Traceback" not in res.output
+
+
+# ----------------------------------------------------------------------------- end to end
+
+HEX = "tests/data/ns3/hex_expand/positions.csv"  # recorded ns-3 trace (REFERENCE.md section 4)
+
+
+def test_run_writes_folder_and_refuses_to_overwrite(runner, tmp_path):
+    out = tmp_path / "run"
+    args = [
+        "run",
+        "--out",
+        str(out),
+        "--no-progress",
+        "--set",
+        "sim.duration_s=5",
+        "--set",
+        "sim.warmup_s=3",
+        "--set",
+        "sim.animation=false",
+    ]
+    res = runner.invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    for name in ("config.toml", "trajectory.csv", "metrics.csv", "swarm.csv", "summary.json"):
+        assert (out / name).is_file()
+    assert "coverage_end_dbm" in res.output
+    # The resolved configuration is the one that ran.
+    assert "duration_s = 5.0" in (out / "config.toml").read_text()
+
+    again = runner.invoke(cli, args)
+    assert again.exit_code == 2 and "--force" in again.output
+    forced = runner.invoke(cli, [*args, "--force"])
+    assert forced.exit_code == 0
+
+
+def test_run_with_invalid_override_creates_nothing(runner, tmp_path):
+    out = tmp_path / "never"
+    res = runner.invoke(cli, ["run", "--out", str(out), "--set", "swarm.n_robots=0"])
+    assert res.exit_code == 2
+    assert "swarm.n_robots: must be >= 1 (got 0)" in res.output
+    assert not out.exists()
+
+
+def test_network_replay_and_compare(runner, tmp_path):
+    res = runner.invoke(
+        cli,
+        [
+            "network",
+            "replay",
+            "--positions",
+            HEX,
+            "--backend",
+            "oracle",
+            "--out",
+            str(tmp_path / "rep"),
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "rep" / "hops.csv").read_text().startswith("t,node,dest,hops\n")
+    res = runner.invoke(
+        cli,
+        [
+            "network",
+            "compare",
+            "--positions",
+            HEX,
+            "--backends",
+            "olsr,oracle",
+            "--out",
+            str(tmp_path / "cmp"),
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "cmp" / "summary.json").is_file()
+
+
+def test_network_replay_bad_trace_exits_2(runner, tmp_path):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,node,x,y,z\n0,0,0,0,0\n0,1,nan,0,0\n")
+    res = runner.invoke(
+        cli, ["network", "replay", "--positions", str(bad), "--out", str(tmp_path / "o")]
+    )
+    assert res.exit_code == 2
+    assert "Traceback" not in res.output
+    assert not (tmp_path / "o").exists()
+
+
+def test_network_compare_needs_two_backends(runner, tmp_path):
+    res = runner.invoke(cli, ["network", "compare", "--positions", HEX, "--backends", "olsr"])
+    assert res.exit_code == 2 and "at least two" in res.output
+
+
+def test_reproduce_fig1(runner, tmp_path):
+    res = runner.invoke(
+        cli, ["reproduce", "fig1", "--backend", "oracle", "--out", str(tmp_path / "f1")]
+    )
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "f1" / "fig1.csv").is_file() and (tmp_path / "f1" / "fig1.png").is_file()

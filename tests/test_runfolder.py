@@ -72,3 +72,15 @@ def test_file_names_cannot_escape(tmp_path):
     run = RunFolder(tmp_path / "r")
     with pytest.raises(ValueError, match="inside the run folder"):
         run.write_text("../escape.txt", "x")
+
+
+def test_files_get_ordinary_permissions(tmp_path):
+    import os
+    import stat
+
+    mask = os.umask(0o022)
+    try:
+        p = atomic_write_text(tmp_path / "a.txt", "x")
+    finally:
+        os.umask(mask)
+    assert stat.S_IMODE(p.stat().st_mode) == 0o644

@@ -58,6 +58,16 @@ def _not_available(what: str) -> NoReturn:
     raise NotAvailableError(f"{what} is not available in swarmgames {__version__} yet")
 
 
+def _interactive() -> bool:
+    return sys.stderr.isatty()
+
+
+def _console():
+    from rich.console import Console
+
+    return Console()
+
+
 def _open_run_folder(out: Path | None, default_name: str, force: bool):
     from swarmgames.runfolder import RunFolder
 
@@ -116,12 +126,27 @@ def run(
 
     Writes config.toml, trajectory.csv, metrics.csv, swarm.csv, plots, an animation and
     summary.json into the run folder, and prints a summary.
+
+    \b
+    Examples:
+      swarmgames run
+      swarmgames run coverage-oracle --seed 3 --out runs/oracle
+      swarmgames run my.toml --set swarm.n_robots=20 --set game.solver=best_response
     """
     from swarmgames.config import resolve_scenario
+    from swarmgames.sim import run as run_mission
+    from swarmgames.sim.runner import check_config
 
     extra = (*overrides, f"seed={seed}") if seed is not None else overrides
-    resolve_scenario(scenario, extra)
-    _not_available("the mission run (`swarmgames run`)")
+    config = resolve_scenario(scenario, extra)
+    check_config(config)  # before the folder is created
+    folder = _open_run_folder(out, config.name, force)
+    result = run_mission(config, out=folder, progress=not no_progress and _interactive())
+    _console().print(result.summary_table())
+    click.echo(f"Wrote {len(folder.written)} files to {folder.path}/")
+    if result.interrupted:
+        click.secho("Interrupted: the completed stages were written.", err=True)
+        sys.exit(130)
 
 
 # ----------------------------------------------------------------------------- reproduce
@@ -133,19 +158,60 @@ FIGURES = ("fig1", "fig2", "all")
 @click.argument("figure", type=click.Choice(FIGURES))
 @out_option
 @force_option
+@set_option
 @click.option(
     "--backend",
-    type=click.Choice(["olsr", "ns3"]),
+    type=click.Choice(["olsr", "oracle", "ns3"]),
     default="olsr",
     show_default=True,
-    help="Network backend for Figure 1.",
+    help="Network backend of Figure 1.",
 )
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@click.option("--no-progress", is_flag=True, help="Do not show a progress bar.")
 @_guarded
-def reproduce(figure: str, out: Path | None, force: bool, backend: str, seed: int) -> None:
-    """Reproduce the paper's figures: fig1 (neighbours and hops against spacing),
-    fig2 (payoff against time; solve and integration time against swarm size), or all."""
-    _not_available(f"`swarmgames reproduce {figure}`")
+def reproduce(
+    figure: str,
+    out: Path | None,
+    force: bool,
+    overrides: tuple[str, ...],
+    backend: str,
+    seed: int,
+    no_progress: bool,
+) -> None:
+    """Reproduce the paper's figures.
+
+    \b
+    fig1  average direct neighbours and hop count of 7 UAVs (line and hexagon)
+          against their spacing, read from settled OLSR tables
+    fig2  (a) average payoff of a robot against time for 3, 5, 7, 10 and 20 UAVs,
+          with and without virtual mean neighbours; (b) local-game solve time and
+          payoff-integration time against swarm size
+    all   both, into OUT/fig1 and OUT/fig2
+
+    --set overrides apply to the default scenario the figures start from.
+    """
+    from swarmgames.config import resolve_scenario
+
+    base = resolve_scenario(None, overrides)
+    root = out if out is not None else Path("runs") / ("figures" if figure == "all" else figure)
+    if figure == "all":
+        folders = {f: _open_run_folder(root / f, f, force) for f in ("fig1", "fig2")}
+    else:
+        folders = {figure: _open_run_folder(root, figure, force)}
+    progress = not no_progress and _interactive()
+    if "fig1" in folders:
+        from swarmgames.experiments.fig1 import reproduce_fig1
+
+        res1 = reproduce_fig1(backend, seed=seed, config=base.network, out=folders["fig1"])
+        click.echo(
+            f"Figure 1 ({backend}): {len(res1.to_frame())} points -> {folders['fig1'].path}/"
+        )
+    if "fig2" in folders:
+        from swarmgames.experiments.fig2 import reproduce_fig2
+
+        res2 = reproduce_fig2(base=base, seed=seed, progress=progress)
+        res2.write(folders["fig2"])
+        click.echo(f"Figure 2: {len(res2.summaries)} runs -> {folders['fig2'].path}/")
 
 
 # ----------------------------------------------------------------------------- network
@@ -177,13 +243,37 @@ BACKENDS = ("olsr", "oracle", "disk", "knn", "ns3")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @out_option
 @force_option
+@set_option
 @_guarded
 def replay(
-    positions: Path, backend: str, sample_every: float, seed: int, out: Path | None, force: bool
+    positions: Path,
+    backend: str,
+    sample_every: float,
+    seed: int,
+    out: Path | None,
+    force: bool,
+    overrides: tuple[str, ...],
 ) -> None:
     """Replay a positions trace and write every robot's hop counts (hops.csv), a per-time
-    summary (summary.csv) and a plot."""
-    _not_available("`swarmgames network replay`")
+    summary (summary.csv) and a plot.
+
+    Radio and OLSR parameters come from the default scenario, changed with --set, e.g.
+    --set network.radio.tx_power_dbm=20.
+    """
+    from swarmgames.config import resolve_scenario
+    from swarmgames.network.replay import replay as replay_trace
+    from swarmgames.network.trace import read_positions
+
+    cfg = resolve_scenario(None, overrides).network
+    trace = read_positions(positions)  # validate before creating the folder
+    folder = _open_run_folder(out, f"replay-{positions.stem}", force)
+    res = replay_trace(trace, backend, sample_every=sample_every, seed=seed, config=cfg, out=folder)
+    s = res.summary
+    click.echo(
+        f"{backend}: {trace.n_nodes} robots, {len(s)} samples, {len(res.hops)} routes; "
+        f"mean degree {s['mean_degree'].mean():.3f}, mean hops {s['mean_hops'].mean():.3f} "
+        f"-> {folder.path}/"
+    )
 
 
 @network.command()
@@ -199,20 +289,40 @@ def replay(
     show_default=True,
     help="Comma-separated backends to compare.",
 )
-@click.option("--sample-every", type=click.FloatRange(min=0, min_open=True), default=0.5)
+@click.option(
+    "--sample-every", type=click.FloatRange(min=0, min_open=True), default=0.5, show_default=True
+)
+@click.option(
+    "--warmup",
+    type=click.FloatRange(min=0),
+    default=0.0,
+    show_default=True,
+    help="Leave samples before this many seconds out of the agreement.",
+)
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @out_option
 @force_option
+@set_option
 @_guarded
 def compare(
     positions: Path,
     backends: str,
     sample_every: float,
+    warmup: float,
     seed: int,
     out: Path | None,
     force: bool,
+    overrides: tuple[str, ...],
 ) -> None:
-    """Run several backends on the same trace and report how far their routing tables agree."""
+    """Run several backends on the same trace and report how far their routing tables agree.
+
+    The first backend is the reference. Writes per_time.csv, confusion.csv, hops_<backend>.csv,
+    agreement.png and summary.json.
+    """
+    from swarmgames.config import resolve_scenario
+    from swarmgames.network.compare import compare as compare_backends
+    from swarmgames.network.trace import read_positions
+
     names = [b.strip() for b in backends.split(",") if b.strip()]
     unknown = [b for b in names if b not in BACKENDS]
     if unknown or len(names) < 2:
@@ -220,7 +330,30 @@ def compare(
             f"must name at least two of {', '.join(BACKENDS)} (got {backends!r})",
             param_hint="--backends",
         )
-    _not_available("`swarmgames network compare`")
+    cfg = resolve_scenario(None, overrides).network
+    trace = read_positions(positions)
+    folder = _open_run_folder(out, f"compare-{positions.stem}", force)
+    res = compare_backends(
+        trace, names, sample_every=sample_every, config=cfg, seed=seed, warmup_s=warmup
+    )
+    res.write(folder)
+    summary = res.summary()
+    from rich.table import Table
+
+    table = Table(title=f"agreement with {summary['reference']} ({trace.n_nodes} robots)")
+    for col in ("backend", "all entries", "within 2 hops", "entries", "wall time (s)"):
+        table.add_column(col, justify="right")
+    for name in names:
+        agree = summary["agreement"].get(name)
+        table.add_row(
+            name,
+            "reference" if agree is None else f"{100 * agree['overall']:.2f} %",
+            "" if agree is None else f"{100 * agree['within_2_hops']:.2f} %",
+            "" if agree is None else str(agree["entries"]),
+            f"{summary['wall_time_s'][name]:.2f}",
+        )
+    _console().print(table)
+    click.echo(f"Wrote {folder.path}/")
 
 
 # ----------------------------------------------------------------------------- bench
