@@ -224,22 +224,25 @@ def network() -> None:
 
 BACKENDS = ("olsr", "oracle", "disk", "knn", "ns3")
 
-
-@network.command()
-@click.option(
+positions_option = click.option(
     "--positions",
     required=True,
     type=click.Path(exists=True, dir_okay=False, path_type=Path),
     help="CSV with columns t,node,x,y,z (metres, seconds); a row holds until the node's next.",
 )
-@click.option("--backend", type=click.Choice(BACKENDS), default="olsr", show_default=True)
-@click.option(
+sample_option = click.option(
     "--sample-every",
     type=click.FloatRange(min=0, min_open=True),
     default=0.5,
     show_default=True,
     help="Sampling interval of the routing tables, seconds.",
 )
+
+
+@network.command()
+@positions_option
+@click.option("--backend", type=click.Choice(BACKENDS), default="olsr", show_default=True)
+@sample_option
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @out_option
 @force_option
@@ -277,21 +280,14 @@ def replay(
 
 
 @network.command()
-@click.option(
-    "--positions",
-    required=True,
-    type=click.Path(exists=True, dir_okay=False, path_type=Path),
-    help="CSV with columns t,node,x,y,z.",
-)
+@positions_option
 @click.option(
     "--backends",
     default="olsr,ns3",
     show_default=True,
     help="Comma-separated backends to compare.",
 )
-@click.option(
-    "--sample-every", type=click.FloatRange(min=0, min_open=True), default=0.5, show_default=True
-)
+@sample_option
 @click.option(
     "--warmup",
     type=click.FloatRange(min=0),
