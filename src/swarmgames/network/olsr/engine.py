@@ -51,7 +51,7 @@ from swarmgames.network.links import LinkGraph
 from swarmgames.network.olsr import tables
 from swarmgames.network.olsr.mpr import select_mprs
 from swarmgames.network.olsr.routing import compute_routes
-from swarmgames.network.olsr.tables import KeyedTable, KeySet
+from swarmgames.network.olsr.tables import KeyedTable, KeySet, first_per_key
 
 __all__ = ["OlsrEngine"]
 
@@ -323,9 +323,12 @@ class OlsrEngine:
         rid = self._tc_round_id
         self._tc_round_id += 1
         self._tc_rounds[rid] = (sk, np.searchsorted(sk, np.arange(self.n + 1) * n))
-        sym_keys = self.links.keys
-        sym_t = self.links.cols["sym"]
-        sel_keys = sk
+        # Link and selector state as of the build time.
+        size = int(n * n)
+        sym_ok = KeySet(size)
+        sym_ok.add(self.links.keys[self.links.cols["sym"] >= b])
+        selector = KeySet(size)
+        selector.add(sk)
         msg = origins.astype(np.int64)
         fwd = origins.astype(np.int64)
         t_send = b + self._jitter(origins.size)
@@ -339,25 +342,21 @@ class OlsrEngine:
             m, f, t = msg[idx], fwd[idx], t_send[idx]
             heard_r.append(r)
             heard_t.append(t)
-            li, lf = self._lookup(sym_keys, r * n + f)
-            ok = lf.copy()
-            ok[lf] = sym_t[li[lf]] >= b  # link state as of the build time
-            ok &= r != m
             mk = m * n + r
+            ok = sym_ok.contains(r * n + f) & (r != m)
             ok &= ~reached.contains(mk)
             if not ok.any():
                 break
             mk, r, f, t, m = mk[ok], r[ok], f[ok], t[ok], m[ok]
-            first = np.lexsort((t, mk))
-            keep = np.r_[True, mk[first][1:] != mk[first][:-1]]
-            sel = first[keep]
+            # Each node processes the earliest copy of each message in this wave.
+            sel = first_per_key(mk, size, np.argsort(t, kind="stable"))
             mk, r, f, t, m = mk[sel], r[sel], f[sel], t[sel], m[sel]
             reached.add(mk)
             out_r.append(r)
             out_o.append(m)
             out_t.append(t)
             # Retransmit when the copy came from an MPR selector of r.
-            _, relay = self._lookup(sel_keys, r * n + f)
+            relay = selector.contains(r * n + f)
             msg, fwd = m[relay], r[relay]
             t_send = t[relay] + self._jitter(int(relay.sum()))
         if out_r:

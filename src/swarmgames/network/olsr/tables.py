@@ -109,3 +109,18 @@ class KeySet:
             self._flags[keys] = True
         else:
             self._keys = np.union1d(self._keys, keys)
+
+
+def first_per_key(keys: np.ndarray, size: int, order: np.ndarray | None = None) -> np.ndarray:
+    """Indices of the first occurrence of each distinct key, "first" in ``order`` (default: the
+    array order). Keys lie in ``[0, size)``; a dense claim array is used while ``size`` is at
+    most :data:`DENSE_LIMIT`."""
+    order = np.arange(keys.size) if order is None else order
+    ordered = keys[order]
+    if size <= DENSE_LIMIT:
+        claim = np.empty(size, dtype=np.int64)
+        pos = np.arange(ordered.size)
+        claim[ordered[::-1]] = pos[::-1]
+        return order[claim[ordered] == pos]
+    _, first = np.unique(ordered, return_index=True)
+    return order[first]
