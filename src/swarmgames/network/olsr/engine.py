@@ -51,7 +51,7 @@ from swarmgames.network.links import LinkGraph
 from swarmgames.network.olsr import tables
 from swarmgames.network.olsr.mpr import select_mprs
 from swarmgames.network.olsr.routing import compute_routes
-from swarmgames.network.olsr.tables import KeyedTable, KeySet, first_per_key
+from swarmgames.network.olsr.tables import KeyedTable, KeySet, first_per_key, sorted_contains
 
 __all__ = ["OlsrEngine"]
 
@@ -231,8 +231,8 @@ class OlsrEngine:
         n = self._nn
         sym_keys = s_owner * n + s_neigh
         # Strict 2-hop: relay symmetric, target neither the owner nor one of its neighbours.
-        ok = np.isin(t_owner * n + t_neigh, sym_keys)
-        ok &= (t_x != t_owner) & ~np.isin(t_owner * n + t_x, sym_keys)
+        ok = sorted_contains(sym_keys, t_owner * n + t_neigh)
+        ok &= (t_x != t_owner) & ~sorted_contains(sym_keys, t_owner * n + t_x)
         triples = np.unique((t_owner[ok] * n + t_neigh[ok]) * n + t_x[ok])
         return select_mprs(
             self.n,
@@ -254,7 +254,7 @@ class OlsrEngine:
         asym = self.links.cols["asym"][alive] >= b
         link = np.where(sym, _SYM, np.where(asym, _ASYM, _LOST)).astype(np.int8)
         neigh = np.where(sym, _SYM_NEIGH, _NOT_NEIGH).astype(np.int8)
-        neigh[np.isin(keys, self.mpr_keys(b)) & sym] = _MPR_NEIGH
+        neigh[sorted_contains(self.mpr_keys(b), keys) & sym] = _MPR_NEIGH
         self._hello_keys, self._hello_link, self._hello_neigh = keys, link, neigh
         self._hello_send = b + self._jitter(self.n)
 

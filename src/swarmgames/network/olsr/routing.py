@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from swarmgames.network.olsr import tables
-from swarmgames.network.olsr.tables import KeySet
+from swarmgames.network.olsr.tables import KeySet, sorted_contains
 
 __all__ = ["TupleTopology", "compute_routes"]
 
@@ -75,7 +75,7 @@ def compute_routes(
     if th_owner.size and (max_hops is None or max_hops >= 2):
         k2 = th_owner.astype(np.int64) * n + th_two_hop
         relay = th_owner.astype(np.int64) * n + th_neigh
-        ok = np.isin(relay, k1) & ~np.isin(k2, k1) & (th_two_hop != th_owner)
+        ok = sorted_contains(k1, relay) & ~sorted_contains(k1, k2) & (th_two_hop != th_owner)
         k2, nh2 = _first_per_key(k2[ok], np.asarray(th_neigh, dtype=np.int64)[ok])
         keys.append(k2)
         hops.append(np.full(k2.size, 2, dtype=np.int16))

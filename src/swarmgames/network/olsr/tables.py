@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["DENSE_LIMIT", "KeySet", "KeyedTable"]
+__all__ = ["DENSE_LIMIT", "KeySet", "KeyedTable", "first_per_key", "sorted_contains"]
 
 #: Largest key range (N * N) for which dense per-pair arrays are used instead of sorted keys.
 DENSE_LIMIT = 25_000_000
@@ -82,7 +82,7 @@ class KeyedTable:
     def drop_prefixes(self, prefixes: np.ndarray, base: int) -> None:
         """Remove every tuple whose ``key // base`` is in ``prefixes``."""
         if self.keys.size and len(prefixes):
-            self.keep(~np.isin(self.keys // base, prefixes))
+            self.keep(~sorted_contains(np.unique(prefixes), self.keys // base))
 
 
 class KeySet:
@@ -124,3 +124,13 @@ def first_per_key(keys: np.ndarray, size: int, order: np.ndarray | None = None) 
         return order[claim[ordered] == pos]
     _, first = np.unique(ordered, return_index=True)
     return order[first]
+
+
+def sorted_contains(sorted_keys: np.ndarray, query: np.ndarray) -> np.ndarray:
+    """Mask of the ``query`` values present in the ascending array ``sorted_keys`` (a binary
+    search per query: cheaper than ``np.isin`` when the sorted side is reused or large)."""
+    query = np.asarray(query)
+    if sorted_keys.size == 0:
+        return np.zeros(query.shape, dtype=bool)
+    idx = np.minimum(np.searchsorted(sorted_keys, query), sorted_keys.size - 1)
+    return sorted_keys[idx] == query
