@@ -233,15 +233,15 @@ class OlsrEngine:
         # Strict 2-hop: relay symmetric, target neither the owner nor one of its neighbours.
         ok = sorted_contains(sym_keys, t_owner * n + t_neigh)
         ok &= (t_x != t_owner) & ~sorted_contains(sym_keys, t_owner * n + t_x)
-        triples = np.unique((t_owner[ok] * n + t_neigh[ok]) * n + t_x[ok])
+        # 2-hop keys are unique, so the triples are too.
         return select_mprs(
             self.n,
             s_owner,
             s_neigh,
             s_created,
-            triples // (n * n),
-            (triples // n) % n,
-            triples % n,
+            t_owner[ok],
+            t_neigh[ok],
+            t_x[ok],
             self.cfg.willingness,
         )
 
