@@ -166,7 +166,7 @@ def reproduce_fig1(
     for layout in layouts:
         for d in spacings:
             pos = fig1_positions(layout, d)
-            provider = make_provider(cfg, 7, rng, hello_only=False)
+            provider = make_provider(cfg, 7, rng, full_tables=True)
             provider.reset(pos, 0.0)
             snap = provider.advance(settle_s, pos)
             rows.append(

@@ -166,7 +166,7 @@ def replay(
         raise ValueError(f"end must be >= the trace start {trace.start} (got {end})")
     if isinstance(provider, str):
         cfg = (config or NetworkConfig()).model_copy(update={"backend": provider})
-        provider = make_provider(cfg, trace.n_nodes, seed, hello_only=False)
+        provider = make_provider(cfg, trace.n_nodes, seed, full_tables=True)
     samples = _sample_times(trace.start, stop, float(sample_every))
     changes = trace.times[(trace.times > trace.start) & (trace.times <= stop)]
     breaks = np.union1d(samples, changes)
