@@ -391,7 +391,7 @@ class _RoundTopology:
         self.n = n
         self.dense = None
         if n * n <= tables.DENSE_LIMIT:
-            self.dense = np.full(int(n * n), -1, dtype=np.int64)
+            self.dense = np.full(int(n * n), -1, dtype=np.int32)
             self.dense[self.keys] = self.round
 
     def advertised(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -165,10 +165,10 @@ def _topology_routes_dense(n, all_k, all_h, all_n, topology, max_hops):
     and first-candidate-wins are then O(1) per candidate and the output comes out sorted."""
     size = int(n * n)
     hop = np.zeros(size, dtype=np.int16)
-    nxt = np.full(size, -1, dtype=np.int64)
+    nxt = np.full(size, -1, dtype=np.int32)
     hop[all_k] = all_h
     nxt[all_k] = all_n
-    claim = np.empty(size, dtype=np.int64)
+    claim = np.empty(size, dtype=np.int32)
     frontier = all_k[all_h == 2]
     h = 2
     while frontier.size and (max_hops is None or h < max_hops):
@@ -181,7 +181,7 @@ def _topology_routes_dense(n, all_k, all_h, all_n, topology, max_hops):
         cand, src = cand[fresh], src[fresh]
         if cand.size == 0:
             break
-        idx = np.arange(cand.size)
+        idx = np.arange(cand.size, dtype=np.int32)
         claim[cand[::-1]] = idx[::-1]
         first = claim[cand] == idx
         cand, src = cand[first], src[first]
@@ -190,4 +190,4 @@ def _topology_routes_dense(n, all_k, all_h, all_n, topology, max_hops):
         frontier = cand
         h += 1
     keys = np.flatnonzero(hop)
-    return keys.astype(np.int64), hop[keys], nxt[keys]
+    return keys.astype(np.int64), hop[keys], nxt[keys].astype(np.int64)

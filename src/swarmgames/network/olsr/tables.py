@@ -13,8 +13,9 @@ import numpy as np
 
 __all__ = ["DENSE_LIMIT", "KeySet", "KeyedTable", "first_per_key", "sorted_contains"]
 
-#: Largest key range (N * N) for which dense per-pair arrays are used instead of sorted keys.
-DENSE_LIMIT = 25_000_000
+#: Largest key range (N * N, i.e. N = 3 000 robots) for which dense per-pair arrays are used
+#: instead of sorted keys (about 150 MB of working arrays at the limit).
+DENSE_LIMIT = 9_000_000
 
 
 class KeyedTable:
@@ -118,8 +119,8 @@ def first_per_key(keys: np.ndarray, size: int, order: np.ndarray | None = None) 
     order = np.arange(keys.size) if order is None else order
     ordered = keys[order]
     if size <= DENSE_LIMIT:
-        claim = np.empty(size, dtype=np.int64)
-        pos = np.arange(ordered.size)
+        claim = np.empty(size, dtype=np.int32)
+        pos = np.arange(ordered.size, dtype=np.int32)
         claim[ordered[::-1]] = pos[::-1]
         return order[claim[ordered] == pos]
     _, first = np.unique(ordered, return_index=True)
