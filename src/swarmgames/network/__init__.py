@@ -1,6 +1,7 @@
 """Network layer: radio propagation, link reception, OLSR routing, k-hop neighbourhoods."""
 
 from swarmgames.network.baselines import DiskProvider, KnnProvider
+from swarmgames.network.conformance import check_provider
 from swarmgames.network.factory import BACKENDS, make_provider
 from swarmgames.network.links import LinkGraph, link_graph
 from swarmgames.network.olsr.provider import OlsrProvider
@@ -23,6 +24,7 @@ __all__ = [
     "PropagationModel",
     "ReplayResult",
     "TopologySnapshot",
+    "check_provider",
     "link_graph",
     "make_provider",
     "max_range",
