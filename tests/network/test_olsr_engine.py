@@ -216,3 +216,23 @@ def test_sparse_and_dense_state_agree(monkeypatch):
         assert a.n_entries > 0
         assert np.array_equal(a.owner, b.owner) and np.array_equal(a.dest, b.dest)
         assert np.array_equal(a.hops, b.hops) and np.array_equal(a.next_hop, b.next_hop)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_two_hop_route_follows_the_relay_s_next_hello(seed):
+    # RFC 3626 8.2.1 / ns-3 PopulateTwoHopNeighborSet: node 0 drops its 2-hop route to 2 when
+    # relay 1's next HELLO lists 2 as lost (NOT_NEIGH), i.e. after 1 itself dropped 2 and
+    # within one HELLO interval plus jitter of that.
+    line = np.array([[0.0, 0, 0], [300.0, 0, 0], [600.0, 0, 0]])
+    gone = line.copy()
+    gone[2] = [5000.0, 0.0, 0.0]
+    p = OlsrProvider(3, seed=seed)
+    p.reset(line)
+    _run(p, line, 20.0)
+
+    def lost_at(owner, dest):
+        return next(s.time for s in snaps if not ((s.owner == owner) & (s.dest == dest)).any())
+
+    snaps = _run(p, gone, 40.0, every=0.1, start=20.0)
+    t1, t0 = lost_at(1, 2), lost_at(0, 2)
+    assert t1 <= t0 <= t1 + 2.5 + 0.1

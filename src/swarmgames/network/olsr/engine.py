@@ -106,6 +106,8 @@ class OlsrEngine:
         self.selectors = KeyedTable(("expiry",))
         self.topology = KeyedTable(("expiry", "round"))
         self.last_rx = np.full(n, -np.inf)
+        # Latest symmetric-link lapse of each node among link tuples already removed.
+        self._lapsed = np.full(n, -np.inf)
         self.next_hello = float(start_time)
         self.next_tc = float(start_time)
         # Current HELLO round: content (sorted keys sender*N+listed), codes, send times.
@@ -165,7 +167,14 @@ class OlsrEngine:
                 self._heard_r, self._heard_t = self._heard_r[~now], self._heard_t[~now]
 
     def _prune(self, t: float) -> None:
-        self.links.keep(self.links.cols["ltime"] >= t)
+        gone = self.links.cols["ltime"] < t
+        if gone.any():
+            # Keep their lapse instants: they are routing-table recomputations (ns-3
+            # NeighborLoss) that the clock of :meth:`_clock` must not forget.
+            np.maximum.at(
+                self._lapsed, self.links.keys[gone] // self._nn, self.links.cols["sym"][gone]
+            )
+            self.links.keep(~gone)
         for table in (self.two_hop, self.selectors, self.topology):
             table.keep(table.cols["expiry"] >= t)
         live = set(np.unique(self._q_round).tolist())
@@ -175,7 +184,7 @@ class OlsrEngine:
     # ------------------------------------------------------------------ state views
     def _clock(self, t: float) -> np.ndarray:
         """Per-node time of the last routing-table computation at or before ``t``."""
-        clock = self.last_rx.copy()
+        clock = np.maximum(self.last_rx, self._lapsed)
         sym = self.links.cols["sym"]
         lapsed = sym <= t
         if lapsed.any():
