@@ -236,3 +236,23 @@ def test_two_hop_route_follows_the_relay_s_next_hello(seed):
     snaps = _run(p, gone, 40.0, every=0.1, start=20.0)
     t1, t0 = lost_at(1, 2), lost_at(0, 2)
     assert t1 <= t0 <= t1 + 2.5 + 0.1
+
+
+@settings(max_examples=20, deadline=None)
+@given(n=st.integers(2, 15), seed=st.integers(0, 2**16))
+def test_tables_reconverge_after_the_swarm_moves(n, seed):
+    # Stale state (links, 2-hop and topology tuples held 6 s / 15 s) must not survive: 40 s
+    # after a jump to a new layout, the tables equal BFS on the new link graph (REFERENCE.md
+    # section 4), with no route into another component.
+    rng = np.random.default_rng(seed)
+    a = np.c_[rng.uniform(0, 1200, (n, 2)), np.zeros(n)]
+    b = np.c_[rng.uniform(0, 2400, (n, 2)), np.zeros(n)]
+    p = OlsrProvider(n, seed=seed)
+    p.reset(a)
+    _run(p, a, 20.0, every=2.0)
+    snap = _run(p, b, 60.0, every=2.0, start=20.0)[-1]
+    expected = _bfs(b)
+    np.fill_diagonal(expected, 0)
+    got = snap.hop_matrix(unreachable=-1).astype(float)
+    got[got < 0] = np.inf
+    assert np.array_equal(got, expected)

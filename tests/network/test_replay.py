@@ -53,7 +53,15 @@ def test_replay_outputs_and_files(tmp_path):
             "z": 0.0,
         }
     )
-    res = replay(PositionTrace.from_frame(df), "oracle", sample_every=1.0, end=6.0)
+    seen = []
+    res = replay(
+        PositionTrace.from_frame(df),
+        "oracle",
+        sample_every=1.0,
+        end=6.0,
+        progress=lambda t, end: seen.append((t, end)),
+    )
+    assert seen[-1] == (6.0, 6.0)
     assert list(res.hops.columns) == ["t", "node", "dest", "hops"]
     assert (res.hops["node"] != res.hops["dest"]).all()
     s = res.summary.set_index("t")

@@ -9,6 +9,7 @@ and a per-time summary.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -113,6 +114,7 @@ def replay(
     out=None,
     config: NetworkConfig | None = None,
     end: float | None = None,
+    progress: Callable[[float, float], None] | None = None,
 ) -> ReplayResult:
     """Run a provider along a positions trace and sample every robot's routing table.
 
@@ -134,6 +136,8 @@ def replay(
         Backend parameters when ``provider`` is a name.
     end : float, optional
         Stop at this time instead of the trace's last time.
+    progress : callable, optional
+        Called as ``progress(t, end)`` after each sample (for a progress bar).
 
     Returns
     -------
@@ -182,6 +186,8 @@ def replay(
             (step or provider.advance)(float(t), held)
             # The row starting at t holds at t (zero-length step: no OLSR events happen).
             frames.append(provider.advance(float(t), trace.at(t)))
+            if progress is not None:
+                progress(float(t), stop)
         elif step is not None:
             step(float(t), held)
         else:
