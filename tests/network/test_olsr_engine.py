@@ -256,3 +256,49 @@ def test_tables_reconverge_after_the_swarm_moves(n, seed):
     got = snap.hop_matrix(unreachable=-1).astype(float)
     got[got < 0] = np.inf
     assert np.array_equal(got, expected)
+
+
+def test_hello_regression_two_nodes():
+    # ns-3 src/olsr/test/hello-regression-test.cc: first HELLO has no link messages, the
+    # second lists the neighbour as an asymmetric link (code 1), the third as symmetric (6).
+    p = OlsrProvider(2, seed=0)
+    p.reset(NEAR)
+    e = p.engine
+    e.run_until(0.0, link_graph(NEAR))
+    assert e.hello_message(0) == [] and e.hello_message(1) == []
+    p.advance(2.0, NEAR)
+    assert e.hello_message(0) == [(1, 1)] and e.hello_message(1) == [(0, 1)]
+    p.advance(4.0, NEAR)
+    assert e.hello_message(0) == [(1, 6)] and e.hello_message(1) == [(0, 6)]
+
+
+def test_tc_regression_three_nodes():
+    # ns-3 src/olsr/test/tc-regression-test.cc: A - B - C with A and C out of range. B's
+    # HELLOs go empty -> asymmetric (1) -> symmetric (6) for both; A's and C's HELLOs then
+    # mark B as their MPR (code 10) from the 4th round on; B's TCs (at 10 s and 15 s, none
+    # before) advertise both A and C; A and C send none.
+    pos = np.array([[0.0, 0, 0], [300.0, 0, 0], [600.0, 0, 0]])
+    a, b, c = 0, 1, 2
+    p = OlsrProvider(3, seed=7)
+    p.reset(pos)
+    e = p.engine
+    e.run_until(0.0, link_graph(pos))
+    assert e.hello_message(b) == [] and e.tc_message(b) is None
+    p.advance(2.0, pos)
+    assert e.hello_message(b) == [(a, 1), (c, 1)]
+    assert e.hello_message(a) == [(b, 1)]
+    p.advance(4.0, pos)
+    assert e.hello_message(b) == [(a, 6), (c, 6)]
+    assert e.hello_message(a) == [(b, 6)]
+    p.advance(5.0, pos)
+    assert e.tc_message(b) is None  # no MPR selectors yet
+    p.advance(6.0, pos)
+    assert e.hello_message(a) == [(b, 10)] and e.hello_message(c) == [(b, 10)]
+    p.advance(10.0, pos)
+    assert e.tc_message(b) == [a, c]
+    assert e.tc_message(a) is None and e.tc_message(c) is None
+    p.advance(15.0, pos)
+    assert e.tc_message(b) == [a, c]
+    # A holds B's TC (topology tuples with last = B); its route to C is 2 hops (2-hop set).
+    assert a * 3 + b in e.topology.keys.tolist()
+    assert p.snapshot().hop_matrix()[a].tolist() == [0, 1, 2]

@@ -118,6 +118,7 @@ class OlsrEngine:
         # Queued TC deliveries (receiver, originator, time, round) and heard packets.
         self._tc_rounds: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._tc_round_id = 0
+        self._last_tc: int | None = None  # round id of the latest TC round, if any TC was sent
         self._q_r = np.zeros(0, dtype=np.int64)
         self._q_o = np.zeros(0, dtype=np.int64)
         self._q_t = np.zeros(0)
@@ -179,6 +180,8 @@ class OlsrEngine:
             table.keep(table.cols["expiry"] >= t)
         live = set(np.unique(self._q_round).tolist())
         live |= set(np.unique(self.topology.cols["round"]).astype(int).tolist())
+        if self._last_tc is not None:
+            live.add(self._last_tc)
         self._tc_rounds = {k: v for k, v in self._tc_rounds.items() if k in live}
 
     # ------------------------------------------------------------------ state views
@@ -254,6 +257,27 @@ class OlsrEngine:
             self.cfg.willingness,
         )
 
+    # ------------------------------------------------------------------ messages
+    def hello_message(self, node: int) -> list[tuple[int, int]]:
+        """Link messages of ``node``'s latest HELLO: ``(neighbour, link_code)`` pairs, with the
+        RFC 3626 section 6.1.1 code ``link_type | neighbour_type << 2`` (link type 1 asym,
+        2 sym, 3 lost; neighbour type 0 not, 1 sym, 2 MPR): 1 = asymmetric, 6 = symmetric,
+        10 = symmetric and selected as MPR."""
+        n = self._nn
+        lo, hi = np.searchsorted(self._hello_keys, [node * n, (node + 1) * n])
+        link = np.where(self._hello_link[lo:hi] == _LOST, 3, self._hello_link[lo:hi])
+        codes = link | (self._hello_neigh[lo:hi].astype(np.int64) << 2)
+        return [(int(k % n), int(c)) for k, c in zip(self._hello_keys[lo:hi], codes, strict=True)]
+
+    def tc_message(self, node: int) -> list[int] | None:
+        """Advertised neighbours (its MPR selectors) of ``node``'s TC in the latest TC round,
+        or ``None`` if it sent none (ns-3 sends no empty TC)."""
+        if self._last_tc is None:
+            return None
+        keys, ptr = self._tc_rounds[self._last_tc]
+        sel = keys[ptr[node] : ptr[node + 1]] % self._nn
+        return sel.astype(int).tolist() if sel.size else None
+
     # ------------------------------------------------------------------ HELLO
     def _build_hellos(self, b: float) -> None:
         lk = self.links.keys
@@ -325,12 +349,14 @@ class OlsrEngine:
         n = self._nn
         live = self.selectors.cols["expiry"] >= b
         sk = self.selectors.keys[live]
-        if sk.size == 0 or graph.n_links == 0:
+        self._last_tc = None
+        if sk.size == 0:
             return
         # TC of o lists its MPR selectors: content keys o*N + selector.
         origins = np.unique(sk // n)
         rid = self._tc_round_id
         self._tc_round_id += 1
+        self._last_tc = rid
         self._tc_rounds[rid] = (sk, np.searchsorted(sk, np.arange(self.n + 1) * n))
         # Link and selector state as of the build time.
         size = int(n * n)
