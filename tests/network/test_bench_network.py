@@ -2,7 +2,12 @@
 
 import numpy as np
 
-from swarmgames.bench.network import bench_olsr_advance, bench_oracle, random_swarm
+from swarmgames.bench.network import (
+    bench_olsr_advance,
+    bench_oracle,
+    bench_replay,
+    random_swarm,
+)
 from swarmgames.network.links import link_graph
 
 
@@ -13,6 +18,8 @@ def test_bench_records_are_plain_dicts():
     assert set(bench_oracle(20)) == {"benchmark", "n_nodes", "routes", "wall_s"}
     hello = bench_olsr_advance(20, sim_seconds=6.0, hello_only=True, seed=1)
     assert hello["hello_only"] is True
+    rep = bench_replay(10, sim_seconds=3.0, backend="oracle")
+    assert rep["benchmark"] == "replay" and rep["rows"] > 0
 
 
 def test_random_swarm_density():
