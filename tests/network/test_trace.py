@@ -1,5 +1,7 @@
 """Positions traces: parsing and every kind of bad input (issue: bad input names the row)."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -25,7 +27,9 @@ def test_reads_piecewise_constant_trace(tmp_path):
 
 
 def test_reads_recorded_ns3_trace():
-    tr = read_positions("tests/data/ns3/hex_expand/positions.csv")
+    tr = read_positions(
+        Path(__file__).resolve().parents[1] / "data" / "ns3" / "hex_expand" / "positions.csv"
+    )
     assert tr.n_nodes == 7 and tr.end == 180.0
 
 
