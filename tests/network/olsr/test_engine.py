@@ -194,6 +194,8 @@ def test_bad_arguments():
         p.advance(1.0, NEAR)
     with pytest.raises(TypeError, match="seed must be"):
         OlsrProvider(2, seed="x")
+    with pytest.raises(ValueError, match=r"max_jitter_s must be < hello_interval_s \(got 2.0"):
+        OlsrProvider(2, olsr=OlsrConfig(max_jitter_s=2.0))
 
 
 def test_sparse_and_dense_state_agree(monkeypatch):
