@@ -71,7 +71,11 @@ def test_oracle_backend_agrees_after_settling():
 
 
 def test_plot_and_write(tmp_path):
-    res = reproduce_fig1(spacings=[100.0, 200.0, 400.0], out=tmp_path / "fig1")
+    calls = []
+    res = reproduce_fig1(
+        spacings=[100.0, 200.0, 400.0], out=tmp_path / "fig1", progress=lambda *a: calls.append(a)
+    )
+    assert calls[-1] == (6, 6) and len(calls) == 6
     assert (tmp_path / "fig1" / "fig1.csv").exists() and (tmp_path / "fig1" / "fig1.png").exists()
     fig = res.plot()
     assert len(fig.axes) == 4  # two panels, each with a second y-axis
@@ -103,3 +107,18 @@ def test_positions():
 def test_bad_arguments(kwargs, match):
     with pytest.raises(ValueError, match=match):
         reproduce_fig1(**kwargs)
+
+
+def test_default_sweep_finds_every_ns3_break_point():
+    # REFERENCE.md section 4: line 184/185 and 368/369 m; hexagon 184/185, 212/213, 368/369 m.
+    # The line also steps where the 3rd..6th neighbours along it drop out (R/3 ... R/6).
+    steps = reproduce_fig1(seed=1).steps()
+    assert steps["hexagon"] == [(184.0, 185.0), (212.0, 213.0), (368.0, 369.0)]
+    assert steps["line"] == [
+        (61.0, 62.0),
+        (73.0, 74.0),
+        (92.0, 93.0),
+        (122.0, 123.0),
+        (184.0, 185.0),
+        (368.0, 369.0),
+    ]

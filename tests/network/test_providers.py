@@ -8,8 +8,9 @@ from swarmgames.errors import BackendUnavailableError
 from swarmgames.network import NeighbourhoodProvider
 from swarmgames.network.baselines import DiskProvider, KnnProvider
 from swarmgames.network.factory import make_provider
+from swarmgames.network.links import link_graph
 from swarmgames.network.olsr.provider import OlsrProvider
-from swarmgames.network.oracle import OracleProvider
+from swarmgames.network.oracle import OracleProvider, bfs_hops, sparse_bfs_routes
 
 LINE = np.c_[np.arange(4) * 300.0, np.zeros(4), np.zeros(4)]
 
@@ -30,7 +31,14 @@ def test_factory_hello_only_auto_follows_h():
     # OlsrConfig.hello_only = 'auto': HELLO-only when h <= 2.
     assert make_provider(NetworkConfig(hops=2), 3).hello_only
     assert not make_provider(NetworkConfig(hops=3), 3).hello_only
-    assert not make_provider(NetworkConfig(hops=2), 3, hello_only=False).hello_only
+    assert not make_provider(NetworkConfig(hops=2), 3, full_tables=True).hello_only
+    assert not make_provider(NetworkConfig(olsr={"hello_only": False}), 3).hello_only
+
+
+def test_factory_oracle_keeps_what_n_i_h_needs():
+    assert make_provider(NetworkConfig(backend="oracle", hops=2), 4).reset(LINE).hops.max() == 2
+    full = make_provider(NetworkConfig(backend="oracle", hops=2), 4, full_tables=True)
+    assert full.reset(LINE).hops.max() == 3
 
 
 def test_ns3_backend_is_lazy_and_reports_absence():
@@ -102,3 +110,21 @@ def test_bad_provider_arguments():
         OracleProvider(0)
     with pytest.raises(ValueError, match=r"positions must have shape \(N, 3\)"):
         OracleProvider(2).reset(np.zeros(3))
+
+
+def test_sparse_bfs_equals_dense_bfs():
+    # Two implementations that must agree: csgraph BFS (dense) and level-by-level sparse BFS.
+    rng = np.random.default_rng(8)
+    pos = np.c_[rng.uniform(0, 2500, (80, 2)), np.zeros(80)]
+    g = link_graph(pos)
+    for h in (1, 2, 4, 50):
+        hops, _ = bfs_hops(g.adjacency(), h)
+        owner, dest, k, nxt = sparse_bfs_routes(g, h)
+        dense = np.full(hops.shape, np.inf)
+        dense[owner, dest] = k
+        np.fill_diagonal(dense, 0)
+        assert np.array_equal(dense, hops)
+        # The next hop is a neighbour one hop closer.
+        full, _ = bfs_hops(g.adjacency())
+        assert np.all(full[owner, nxt] == 1)
+        assert np.all(full[nxt, dest] == k - 1)

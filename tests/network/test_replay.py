@@ -35,6 +35,20 @@ def test_olsr_matches_ns3_recording_at_its_own_run_to_run_level(seed, ns3_hops):
     assert agreement(res.hops, ns3_hops) >= 0.97
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_every_mismatch_is_in_the_reconnection_window(seed, ns3_hops):
+    # docs/network.md: the only disagreements come right after the ring re-enters range on
+    # contraction (116.3 s), while the jitter decides which link ends turn symmetric first;
+    # the lost-link lag on expansion (63.8 s) and every settled table match ns-3 exactly.
+    res = replay(DATA / "positions.csv", "olsr", seed=seed)
+    ours = res.hops[res.hops["t"] >= ns3_hops["t"].min()]
+    m = ns3_hops.merge(ours, on=["t", "node", "dest"], how="outer", suffixes=("_ns3", "_ours"))
+    bad = m[m["hops_ns3"] != m["hops_ours"]]
+    assert bad["t"].between(118.5, 122.0).all()
+    # Never two different hop counts for the same entry: only presence differs.
+    assert (bad["hops_ns3"].isna() | bad["hops_ours"].isna()).all()
+
+
 def test_instant_bfs_lags_behind_ns3(ns3_hops):
     # The oracle has no protocol lag: it misses the ns-3 lag windows.
     res = replay(DATA / "positions.csv", "oracle")
@@ -53,7 +67,15 @@ def test_replay_outputs_and_files(tmp_path):
             "z": 0.0,
         }
     )
-    res = replay(PositionTrace.from_frame(df), "oracle", sample_every=1.0, end=6.0)
+    seen = []
+    res = replay(
+        PositionTrace.from_frame(df),
+        "oracle",
+        sample_every=1.0,
+        end=6.0,
+        progress=lambda t, end: seen.append((t, end)),
+    )
+    assert seen[-1] == (6.0, 6.0)
     assert list(res.hops.columns) == ["t", "node", "dest", "hops"]
     assert (res.hops["node"] != res.hops["dest"]).all()
     s = res.summary.set_index("t")

@@ -1,10 +1,15 @@
 """Positions traces: parsing and every kind of bad input (issue: bad input names the row)."""
 
+from pathlib import Path
+
 import numpy as np
+import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from swarmgames.errors import InputDataError
-from swarmgames.network.trace import read_positions
+from swarmgames.network.trace import PositionTrace, read_positions
 
 GOOD = "t,node,x,y,z\n0,0,0,0,0\n0,1,100,0,0\n1.5,1,200,0,0\n"
 
@@ -25,7 +30,9 @@ def test_reads_piecewise_constant_trace(tmp_path):
 
 
 def test_reads_recorded_ns3_trace():
-    tr = read_positions("tests/data/ns3/hex_expand/positions.csv")
+    tr = read_positions(
+        Path(__file__).resolve().parents[1] / "data" / "ns3" / "hex_expand" / "positions.csv"
+    )
     assert tr.n_nodes == 7 and tr.end == 180.0
 
 
@@ -67,3 +74,30 @@ def test_empty_file(tmp_path):
 def test_single_robot_trace(tmp_path):
     tr = read_positions(_write(tmp_path, "t,node,x,y,z\n0,0,1,2,3\n"))
     assert tr.n_nodes == 1 and np.array_equal(tr.at(0.0), [[1.0, 2.0, 3.0]])
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    rows=st.lists(
+        st.tuples(st.integers(0, 3), st.integers(1, 40), st.floats(-1e4, 1e4)),
+        min_size=1,
+        max_size=30,
+    ),
+    query=st.floats(0, 5),
+)
+def test_position_at_is_the_nodes_latest_row(rows, query):
+    # A node's row holds from its t until its next row (issue: trace semantics).
+    n = max(r[0] for r in rows) + 1
+    data = {(node, 0.0): (0.0, 0.0) for node in range(n)}  # every node present at t = 0
+    for node, tick, x in rows:
+        data[(node, tick / 10)] = (x, -x)
+    frame = pd.DataFrame(
+        [(t, node, x, y, 1.0) for (node, t), (x, y) in data.items()],
+        columns=["t", "node", "x", "y", "z"],
+    ).sample(frac=1.0, random_state=0)  # row order across nodes does not matter
+    frame = frame.sort_values("t", kind="stable")
+    tr = PositionTrace.from_frame(frame)
+    got = tr.at(query)
+    for node in range(n):
+        t_last = max(t for (k, t) in data if k == node and t <= query)
+        assert got[node].tolist() == [*data[(node, t_last)], 1.0]

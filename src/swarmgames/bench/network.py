@@ -12,12 +12,15 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import pandas as pd
 
 from swarmgames.network.olsr.provider import OlsrProvider
 from swarmgames.network.oracle import OracleProvider
+from swarmgames.network.replay import replay
+from swarmgames.network.trace import PositionTrace
 from swarmgames.network.validation import as_generator
 
-__all__ = ["bench_olsr_advance", "bench_oracle", "random_swarm"]
+__all__ = ["bench_olsr_advance", "bench_oracle", "bench_replay", "random_swarm"]
 
 
 def random_swarm(
@@ -81,5 +84,47 @@ def bench_oracle(n_nodes: int, seed: int = 0, mean_degree: float = 10.0) -> dict
         "benchmark": "oracle",
         "n_nodes": n_nodes,
         "routes": snap.n_entries,
+        "wall_s": time.perf_counter() - t0,
+    }
+
+
+def bench_replay(
+    n_nodes: int,
+    sim_seconds: float = 60.0,
+    dt: float = 0.1,
+    sample_every: float = 0.5,
+    backend: str = "olsr",
+    seed: int = 0,
+    mean_degree: float = 10.0,
+    speed_mps: float = 5.0,
+) -> dict:
+    """Wall time of :func:`~swarmgames.network.replay.replay` on a synthetic trace (random
+    square layout drifting at ``speed_mps``, a row per node every ``dt`` seconds)."""
+    rng = as_generator(seed)
+    pos = random_swarm(n_nodes, mean_degree, seed=rng)
+    heading = rng.uniform(0, 2 * np.pi, n_nodes)
+    vel = speed_mps * np.c_[np.cos(heading), np.sin(heading), np.zeros(n_nodes)]
+    times = np.round(np.arange(0.0, sim_seconds + 1e-9, dt), 9)
+    xyz = pos[None] + times[:, None, None] * vel[None]
+    frame = pd.DataFrame(
+        {
+            "t": np.repeat(times, n_nodes),
+            "node": np.tile(np.arange(n_nodes), times.size),
+            "x": xyz[..., 0].ravel(),
+            "y": xyz[..., 1].ravel(),
+            "z": xyz[..., 2].ravel(),
+        }
+    )
+    trace = PositionTrace.from_frame(frame)
+    t0 = time.perf_counter()
+    res = replay(trace, backend, sample_every=sample_every, seed=rng)
+    return {
+        "benchmark": "replay",
+        "backend": backend,
+        "n_nodes": n_nodes,
+        "sim_seconds": sim_seconds,
+        "dt": dt,
+        "sample_every": sample_every,
+        "rows": len(res.hops),
         "wall_s": time.perf_counter() - t0,
     }

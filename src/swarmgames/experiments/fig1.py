@@ -20,6 +20,7 @@ References
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -73,6 +74,21 @@ class Fig1Result:
         """The data as a DataFrame (a copy)."""
         return self.frame.copy()
 
+    def steps(self) -> dict[str, list[tuple[float, float]]]:
+        """Where the curves step, per layout: pairs ``(last spacing before, first after)`` at
+        which the average number of direct neighbours changes.
+
+        With the defaults the hexagon steps at (184, 185), (212, 213) and (368, 369) m.
+        """
+        out = {}
+        for layout, f in self.frame.groupby("layout", sort=False):
+            f = f.sort_values("spacing_m")
+            d = f["spacing_m"].to_numpy()
+            k = f["mean_neighbours"].to_numpy()
+            change = np.flatnonzero(np.diff(k) != 0)
+            out[str(layout)] = [(float(d[i]), float(d[i + 1])) for i in change]
+        return out
+
     def plot(self):
         """Two panels (line, hexagon), neighbours on the left axis and hops on the right axis,
         as in the paper's Figure 1."""
@@ -117,6 +133,7 @@ def reproduce_fig1(
     seed: int | np.random.Generator | None = 0,
     config: NetworkConfig | None = None,
     out=None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Fig1Result:
     """Sweep the spacing of 7 UAVs and read neighbours and hop counts after settling.
 
@@ -137,6 +154,8 @@ def reproduce_fig1(
         Radio and OLSR parameters (``backend`` overrides its backend).
     out : RunFolder, str or Path, optional
         If given, write ``fig1.csv`` and ``fig1.png`` there.
+    progress : callable, optional
+        Called as ``progress(done, total)`` after each spacing (for a progress bar).
 
     Returns
     -------
@@ -163,10 +182,11 @@ def reproduce_fig1(
     cfg = (config or NetworkConfig()).model_copy(update={"backend": backend})
     rng = as_generator(seed)
     rows = []
+    total = len(layouts) * spacings.size
     for layout in layouts:
         for d in spacings:
             pos = fig1_positions(layout, d)
-            provider = make_provider(cfg, 7, rng, hello_only=False)
+            provider = make_provider(cfg, 7, rng, full_tables=True)
             provider.reset(pos, 0.0)
             snap = provider.advance(settle_s, pos)
             rows.append(
@@ -178,6 +198,8 @@ def reproduce_fig1(
                     "routes": snap.n_entries,
                 }
             )
+            if progress is not None:
+                progress(len(rows), total)
     result = Fig1Result(pd.DataFrame(rows), backend)
     if out is not None:
         result.write(out)

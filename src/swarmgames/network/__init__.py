@@ -1,13 +1,13 @@
 """Network layer: radio propagation, link reception, OLSR routing, k-hop neighbourhoods."""
 
 from swarmgames.network.baselines import DiskProvider, KnnProvider
+from swarmgames.network.conformance import check_provider
 from swarmgames.network.factory import BACKENDS, make_provider
 from swarmgames.network.links import LinkGraph, link_graph
 from swarmgames.network.olsr.provider import OlsrProvider
 from swarmgames.network.oracle import OracleProvider
 from swarmgames.network.propagation import PropagationModel, max_range
 from swarmgames.network.provider import NeighbourhoodProvider
-from swarmgames.network.replay import ReplayResult, replay
 from swarmgames.network.topology import TopologySnapshot
 from swarmgames.network.trace import PositionTrace, read_positions
 
@@ -21,11 +21,13 @@ __all__ = [
     "OracleProvider",
     "PositionTrace",
     "PropagationModel",
-    "ReplayResult",
     "TopologySnapshot",
+    "check_provider",
     "link_graph",
     "make_provider",
     "max_range",
     "read_positions",
-    "replay",
 ]
+
+# ``replay`` and ``ReplayResult`` live in :mod:`swarmgames.network.replay`; they are not
+# re-exported here so that the function does not shadow its module.

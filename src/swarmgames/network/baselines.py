@@ -44,6 +44,11 @@ class _InstantProvider:
         self._time = check_time(to_time, self._time)
         return self._snapshot(pos)
 
+    def step(self, to_time: float, positions: np.ndarray) -> None:
+        """Move the clock to ``to_time`` without building a snapshot (nothing to simulate)."""
+        check_positions(positions, self.n_nodes)
+        self._time = check_time(to_time, self._time)
+
     def _snapshot(self, pos: np.ndarray) -> TopologySnapshot:  # pragma: no cover - abstract
         raise NotImplementedError
 

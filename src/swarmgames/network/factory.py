@@ -21,7 +21,7 @@ def make_provider(
     config: NetworkConfig | None,
     n_nodes: int,
     seed: int | np.random.Generator | None = None,
-    hello_only: bool | None = None,
+    full_tables: bool = False,
 ) -> NeighbourhoodProvider:
     """The provider named by ``config.backend`` for ``n_nodes`` robots.
 
@@ -33,9 +33,11 @@ def make_provider(
         Number of robots.
     seed : int, Generator or None
         Seed of the provider's random draws.
-    hello_only : bool, optional
-        OLSR only: override ``config.olsr.hello_only``. ``'auto'`` in the configuration means
-        HELLO-only when ``config.hops <= 2`` (TCs cannot change N_i(h) then).
+    full_tables : bool, default False
+        Keep every route, whatever its length (trace replay, Figure 1). Otherwise only what
+        N_i(h) needs: the ``olsr`` backend follows ``config.olsr.hello_only`` (``'auto'``:
+        HELLO-only when ``config.hops <= 2``, where TCs cannot change N_i(h)) and the
+        ``oracle`` keeps routes of at most ``config.hops`` hops.
 
     Raises
     ------
@@ -47,12 +49,13 @@ def make_provider(
     config = config or NetworkConfig()
     name = config.backend
     if name == "olsr":
-        if hello_only is None:
-            flag = config.olsr.hello_only
-            hello_only = config.hops <= 2 if flag == "auto" else bool(flag)
+        flag = config.olsr.hello_only
+        hello_only = (config.hops <= 2 if flag == "auto" else bool(flag)) and not full_tables
         return OlsrProvider(n_nodes, config.radio, config.olsr, hello_only, seed)
     if name == "oracle":
-        return OracleProvider(n_nodes, config.radio, seed=seed)
+        return OracleProvider(
+            n_nodes, config.radio, max_hops=None if full_tables else config.hops, seed=seed
+        )
     if name == "disk":
         return DiskProvider(n_nodes, config.disk_radius_m)
     if name == "knn":

@@ -51,7 +51,7 @@ from swarmgames.network.links import LinkGraph
 from swarmgames.network.olsr import tables
 from swarmgames.network.olsr.mpr import select_mprs
 from swarmgames.network.olsr.routing import compute_routes
-from swarmgames.network.olsr.tables import KeyedTable, KeySet
+from swarmgames.network.olsr.tables import KeyedTable, KeySet, first_per_key, sorted_contains
 
 __all__ = ["OlsrEngine"]
 
@@ -106,6 +106,8 @@ class OlsrEngine:
         self.selectors = KeyedTable(("expiry",))
         self.topology = KeyedTable(("expiry", "round"))
         self.last_rx = np.full(n, -np.inf)
+        # Latest symmetric-link lapse of each node among link tuples already removed.
+        self._lapsed = np.full(n, -np.inf)
         self.next_hello = float(start_time)
         self.next_tc = float(start_time)
         # Current HELLO round: content (sorted keys sender*N+listed), codes, send times.
@@ -116,6 +118,7 @@ class OlsrEngine:
         # Queued TC deliveries (receiver, originator, time, round) and heard packets.
         self._tc_rounds: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._tc_round_id = 0
+        self._last_tc: int | None = None  # round id of the latest TC round, if any TC was sent
         self._q_r = np.zeros(0, dtype=np.int64)
         self._q_o = np.zeros(0, dtype=np.int64)
         self._q_t = np.zeros(0)
@@ -165,17 +168,26 @@ class OlsrEngine:
                 self._heard_r, self._heard_t = self._heard_r[~now], self._heard_t[~now]
 
     def _prune(self, t: float) -> None:
-        self.links.keep(self.links.cols["ltime"] >= t)
+        gone = self.links.cols["ltime"] < t
+        if gone.any():
+            # Keep their lapse instants: they are routing-table recomputations (ns-3
+            # NeighborLoss) that the clock of :meth:`_clock` must not forget.
+            np.maximum.at(
+                self._lapsed, self.links.keys[gone] // self._nn, self.links.cols["sym"][gone]
+            )
+            self.links.keep(~gone)
         for table in (self.two_hop, self.selectors, self.topology):
             table.keep(table.cols["expiry"] >= t)
         live = set(np.unique(self._q_round).tolist())
         live |= set(np.unique(self.topology.cols["round"]).astype(int).tolist())
+        if self._last_tc is not None:
+            live.add(self._last_tc)
         self._tc_rounds = {k: v for k, v in self._tc_rounds.items() if k in live}
 
     # ------------------------------------------------------------------ state views
     def _clock(self, t: float) -> np.ndarray:
         """Per-node time of the last routing-table computation at or before ``t``."""
-        clock = self.last_rx.copy()
+        clock = np.maximum(self.last_rx, self._lapsed)
         sym = self.links.cols["sym"]
         lapsed = sym <= t
         if lapsed.any():
@@ -231,19 +243,40 @@ class OlsrEngine:
         n = self._nn
         sym_keys = s_owner * n + s_neigh
         # Strict 2-hop: relay symmetric, target neither the owner nor one of its neighbours.
-        ok = np.isin(t_owner * n + t_neigh, sym_keys)
-        ok &= (t_x != t_owner) & ~np.isin(t_owner * n + t_x, sym_keys)
-        triples = np.unique((t_owner[ok] * n + t_neigh[ok]) * n + t_x[ok])
+        ok = sorted_contains(sym_keys, t_owner * n + t_neigh)
+        ok &= (t_x != t_owner) & ~sorted_contains(sym_keys, t_owner * n + t_x)
+        # 2-hop keys are unique, so the triples are too.
         return select_mprs(
             self.n,
             s_owner,
             s_neigh,
             s_created,
-            triples // (n * n),
-            (triples // n) % n,
-            triples % n,
+            t_owner[ok],
+            t_neigh[ok],
+            t_x[ok],
             self.cfg.willingness,
         )
+
+    # ------------------------------------------------------------------ messages
+    def hello_message(self, node: int) -> list[tuple[int, int]]:
+        """Link messages of ``node``'s latest HELLO: ``(neighbour, link_code)`` pairs, with the
+        RFC 3626 section 6.1.1 code ``link_type | neighbour_type << 2`` (link type 1 asym,
+        2 sym, 3 lost; neighbour type 0 not, 1 sym, 2 MPR): 1 = asymmetric, 6 = symmetric,
+        10 = symmetric and selected as MPR."""
+        n = self._nn
+        lo, hi = np.searchsorted(self._hello_keys, [node * n, (node + 1) * n])
+        link = np.where(self._hello_link[lo:hi] == _LOST, 3, self._hello_link[lo:hi])
+        codes = link | (self._hello_neigh[lo:hi].astype(np.int64) << 2)
+        return [(int(k % n), int(c)) for k, c in zip(self._hello_keys[lo:hi], codes, strict=True)]
+
+    def tc_message(self, node: int) -> list[int] | None:
+        """Advertised neighbours (its MPR selectors) of ``node``'s TC in the latest TC round,
+        or ``None`` if it sent none (ns-3 sends no empty TC)."""
+        if self._last_tc is None:
+            return None
+        keys, ptr = self._tc_rounds[self._last_tc]
+        sel = keys[ptr[node] : ptr[node + 1]] % self._nn
+        return sel.astype(int).tolist() if sel.size else None
 
     # ------------------------------------------------------------------ HELLO
     def _build_hellos(self, b: float) -> None:
@@ -254,7 +287,7 @@ class OlsrEngine:
         asym = self.links.cols["asym"][alive] >= b
         link = np.where(sym, _SYM, np.where(asym, _ASYM, _LOST)).astype(np.int8)
         neigh = np.where(sym, _SYM_NEIGH, _NOT_NEIGH).astype(np.int8)
-        neigh[np.isin(keys, self.mpr_keys(b)) & sym] = _MPR_NEIGH
+        neigh[sorted_contains(self.mpr_keys(b), keys) & sym] = _MPR_NEIGH
         self._hello_keys, self._hello_link, self._hello_neigh = keys, link, neigh
         self._hello_send = b + self._jitter(self.n)
 
@@ -316,16 +349,21 @@ class OlsrEngine:
         n = self._nn
         live = self.selectors.cols["expiry"] >= b
         sk = self.selectors.keys[live]
-        if sk.size == 0 or graph.n_links == 0:
+        self._last_tc = None
+        if sk.size == 0:
             return
         # TC of o lists its MPR selectors: content keys o*N + selector.
         origins = np.unique(sk // n)
         rid = self._tc_round_id
         self._tc_round_id += 1
+        self._last_tc = rid
         self._tc_rounds[rid] = (sk, np.searchsorted(sk, np.arange(self.n + 1) * n))
-        sym_keys = self.links.keys
-        sym_t = self.links.cols["sym"]
-        sel_keys = sk
+        # Link and selector state as of the build time.
+        size = int(n * n)
+        sym_ok = KeySet(size)
+        sym_ok.add(self.links.keys[self.links.cols["sym"] >= b])
+        selector = KeySet(size)
+        selector.add(sk)
         msg = origins.astype(np.int64)
         fwd = origins.astype(np.int64)
         t_send = b + self._jitter(origins.size)
@@ -339,25 +377,21 @@ class OlsrEngine:
             m, f, t = msg[idx], fwd[idx], t_send[idx]
             heard_r.append(r)
             heard_t.append(t)
-            li, lf = self._lookup(sym_keys, r * n + f)
-            ok = lf.copy()
-            ok[lf] = sym_t[li[lf]] >= b  # link state as of the build time
-            ok &= r != m
             mk = m * n + r
+            ok = sym_ok.contains(r * n + f) & (r != m)
             ok &= ~reached.contains(mk)
             if not ok.any():
                 break
             mk, r, f, t, m = mk[ok], r[ok], f[ok], t[ok], m[ok]
-            first = np.lexsort((t, mk))
-            keep = np.r_[True, mk[first][1:] != mk[first][:-1]]
-            sel = first[keep]
+            # Each node processes the earliest copy of each message in this wave.
+            sel = first_per_key(mk, size, np.argsort(t, kind="stable"))
             mk, r, f, t, m = mk[sel], r[sel], f[sel], t[sel], m[sel]
             reached.add(mk)
             out_r.append(r)
             out_o.append(m)
             out_t.append(t)
             # Retransmit when the copy came from an MPR selector of r.
-            _, relay = self._lookup(sel_keys, r * n + f)
+            relay = selector.contains(r * n + f)
             msg, fwd = m[relay], r[relay]
             t_send = t[relay] + self._jitter(int(relay.sum()))
         if out_r:
@@ -392,7 +426,7 @@ class _RoundTopology:
         self.n = n
         self.dense = None
         if n * n <= tables.DENSE_LIMIT:
-            self.dense = np.full(int(n * n), -1, dtype=np.int64)
+            self.dense = np.full(int(n * n), -1, dtype=np.int32)
             self.dense[self.keys] = self.round
 
     def advertised(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

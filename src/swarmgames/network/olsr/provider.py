@@ -31,6 +31,11 @@ class OlsrProvider:
     seed : int, Generator or None
         Seed of the message jitter (and of shadowing / fading draws).
 
+    Raises
+    ------
+    ValueError
+        If ``n_nodes < 1`` or ``olsr.max_jitter_s >= olsr.hello_interval_s``.
+
     Examples
     --------
     >>> p = OlsrProvider(3)
@@ -55,6 +60,13 @@ class OlsrProvider:
         self.n_nodes = int(n_nodes)
         self.model = PropagationModel(radio or RadioConfig())
         self.olsr = olsr or OlsrConfig()
+        if self.olsr.max_jitter_s >= self.olsr.hello_interval_s:
+            # Each HELLO round must be on the air before the next is built (ns-3: jitter is a
+            # quarter of the HELLO interval).
+            raise ValueError(
+                "max_jitter_s must be < hello_interval_s "
+                f"(got {self.olsr.max_jitter_s} >= {self.olsr.hello_interval_s})"
+            )
         self.hello_only = bool(hello_only)
         self._rng = as_generator(seed)
         self._engine: OlsrEngine | None = None

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from swarmgames.network.olsr import tables
-from swarmgames.network.olsr.tables import KeySet
+from swarmgames.network.olsr.tables import KeySet, sorted_contains
 
 __all__ = ["TupleTopology", "compute_routes"]
 
@@ -75,7 +75,7 @@ def compute_routes(
     if th_owner.size and (max_hops is None or max_hops >= 2):
         k2 = th_owner.astype(np.int64) * n + th_two_hop
         relay = th_owner.astype(np.int64) * n + th_neigh
-        ok = np.isin(relay, k1) & ~np.isin(k2, k1) & (th_two_hop != th_owner)
+        ok = sorted_contains(k1, relay) & ~sorted_contains(k1, k2) & (th_two_hop != th_owner)
         k2, nh2 = _first_per_key(k2[ok], np.asarray(th_neigh, dtype=np.int64)[ok])
         keys.append(k2)
         hops.append(np.full(k2.size, 2, dtype=np.int16))
@@ -165,10 +165,10 @@ def _topology_routes_dense(n, all_k, all_h, all_n, topology, max_hops):
     and first-candidate-wins are then O(1) per candidate and the output comes out sorted."""
     size = int(n * n)
     hop = np.zeros(size, dtype=np.int16)
-    nxt = np.full(size, -1, dtype=np.int64)
+    nxt = np.full(size, -1, dtype=np.int32)
     hop[all_k] = all_h
     nxt[all_k] = all_n
-    claim = np.empty(size, dtype=np.int64)
+    claim = np.empty(size, dtype=np.int32)
     frontier = all_k[all_h == 2]
     h = 2
     while frontier.size and (max_hops is None or h < max_hops):
@@ -181,7 +181,7 @@ def _topology_routes_dense(n, all_k, all_h, all_n, topology, max_hops):
         cand, src = cand[fresh], src[fresh]
         if cand.size == 0:
             break
-        idx = np.arange(cand.size)
+        idx = np.arange(cand.size, dtype=np.int32)
         claim[cand[::-1]] = idx[::-1]
         first = claim[cand] == idx
         cand, src = cand[first], src[first]
@@ -190,4 +190,4 @@ def _topology_routes_dense(n, all_k, all_h, all_n, topology, max_hops):
         frontier = cand
         h += 1
     keys = np.flatnonzero(hop)
-    return keys.astype(np.int64), hop[keys], nxt[keys]
+    return keys.astype(np.int64), hop[keys], nxt[keys].astype(np.int64)

@@ -11,10 +11,11 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["DENSE_LIMIT", "KeySet", "KeyedTable"]
+__all__ = ["DENSE_LIMIT", "KeySet", "KeyedTable", "first_per_key", "sorted_contains"]
 
-#: Largest key range (N * N) for which dense per-pair arrays are used instead of sorted keys.
-DENSE_LIMIT = 25_000_000
+#: Largest key range (N * N, i.e. N = 3 000 robots) for which dense per-pair arrays are used
+#: instead of sorted keys (about 150 MB of working arrays at the limit).
+DENSE_LIMIT = 9_000_000
 
 
 class KeyedTable:
@@ -82,7 +83,7 @@ class KeyedTable:
     def drop_prefixes(self, prefixes: np.ndarray, base: int) -> None:
         """Remove every tuple whose ``key // base`` is in ``prefixes``."""
         if self.keys.size and len(prefixes):
-            self.keep(~np.isin(self.keys // base, prefixes))
+            self.keep(~sorted_contains(np.unique(prefixes), self.keys // base))
 
 
 class KeySet:
@@ -109,3 +110,28 @@ class KeySet:
             self._flags[keys] = True
         else:
             self._keys = np.union1d(self._keys, keys)
+
+
+def first_per_key(keys: np.ndarray, size: int, order: np.ndarray | None = None) -> np.ndarray:
+    """Indices of the first occurrence of each distinct key, "first" in ``order`` (default: the
+    array order). Keys lie in ``[0, size)``; a dense claim array is used while ``size`` is at
+    most :data:`DENSE_LIMIT`."""
+    order = np.arange(keys.size) if order is None else order
+    ordered = keys[order]
+    if size <= DENSE_LIMIT:
+        claim = np.empty(size, dtype=np.int32)
+        pos = np.arange(ordered.size, dtype=np.int32)
+        claim[ordered[::-1]] = pos[::-1]
+        return order[claim[ordered] == pos]
+    _, first = np.unique(ordered, return_index=True)
+    return order[first]
+
+
+def sorted_contains(sorted_keys: np.ndarray, query: np.ndarray) -> np.ndarray:
+    """Mask of the ``query`` values present in the ascending array ``sorted_keys`` (a binary
+    search per query: cheaper than ``np.isin`` when the sorted side is reused or large)."""
+    query = np.asarray(query)
+    if sorted_keys.size == 0:
+        return np.zeros(query.shape, dtype=bool)
+    idx = np.minimum(np.searchsorted(sorted_keys, query), sorted_keys.size - 1)
+    return sorted_keys[idx] == query

@@ -194,6 +194,8 @@ def test_bad_arguments():
         p.advance(1.0, NEAR)
     with pytest.raises(TypeError, match="seed must be"):
         OlsrProvider(2, seed="x")
+    with pytest.raises(ValueError, match=r"max_jitter_s must be < hello_interval_s \(got 2.0"):
+        OlsrProvider(2, olsr=OlsrConfig(max_jitter_s=2.0))
 
 
 def test_sparse_and_dense_state_agree(monkeypatch):
@@ -216,3 +218,89 @@ def test_sparse_and_dense_state_agree(monkeypatch):
         assert a.n_entries > 0
         assert np.array_equal(a.owner, b.owner) and np.array_equal(a.dest, b.dest)
         assert np.array_equal(a.hops, b.hops) and np.array_equal(a.next_hop, b.next_hop)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_two_hop_route_follows_the_relay_s_next_hello(seed):
+    # RFC 3626 8.2.1 / ns-3 PopulateTwoHopNeighborSet: node 0 drops its 2-hop route to 2 when
+    # relay 1's next HELLO lists 2 as lost (NOT_NEIGH), i.e. after 1 itself dropped 2 and
+    # within one HELLO interval plus jitter of that.
+    line = np.array([[0.0, 0, 0], [300.0, 0, 0], [600.0, 0, 0]])
+    gone = line.copy()
+    gone[2] = [5000.0, 0.0, 0.0]
+    p = OlsrProvider(3, seed=seed)
+    p.reset(line)
+    _run(p, line, 20.0)
+
+    def lost_at(owner, dest):
+        return next(s.time for s in snaps if not ((s.owner == owner) & (s.dest == dest)).any())
+
+    snaps = _run(p, gone, 40.0, every=0.1, start=20.0)
+    t1, t0 = lost_at(1, 2), lost_at(0, 2)
+    assert t1 <= t0 <= t1 + 2.5 + 0.1
+
+
+@settings(max_examples=20, deadline=None)
+@given(n=st.integers(2, 15), seed=st.integers(0, 2**16))
+def test_tables_reconverge_after_the_swarm_moves(n, seed):
+    # Stale state (links, 2-hop and topology tuples held 6 s / 15 s) must not survive: 40 s
+    # after a jump to a new layout, the tables equal BFS on the new link graph (REFERENCE.md
+    # section 4), with no route into another component.
+    rng = np.random.default_rng(seed)
+    a = np.c_[rng.uniform(0, 1200, (n, 2)), np.zeros(n)]
+    b = np.c_[rng.uniform(0, 2400, (n, 2)), np.zeros(n)]
+    p = OlsrProvider(n, seed=seed)
+    p.reset(a)
+    _run(p, a, 20.0, every=2.0)
+    snap = _run(p, b, 60.0, every=2.0, start=20.0)[-1]
+    expected = _bfs(b)
+    np.fill_diagonal(expected, 0)
+    got = snap.hop_matrix(unreachable=-1).astype(float)
+    got[got < 0] = np.inf
+    assert np.array_equal(got, expected)
+
+
+def test_hello_regression_two_nodes():
+    # ns-3 src/olsr/test/hello-regression-test.cc: first HELLO has no link messages, the
+    # second lists the neighbour as an asymmetric link (code 1), the third as symmetric (6).
+    p = OlsrProvider(2, seed=0)
+    p.reset(NEAR)
+    e = p.engine
+    e.run_until(0.0, link_graph(NEAR))
+    assert e.hello_message(0) == [] and e.hello_message(1) == []
+    p.advance(2.0, NEAR)
+    assert e.hello_message(0) == [(1, 1)] and e.hello_message(1) == [(0, 1)]
+    p.advance(4.0, NEAR)
+    assert e.hello_message(0) == [(1, 6)] and e.hello_message(1) == [(0, 6)]
+
+
+def test_tc_regression_three_nodes():
+    # ns-3 src/olsr/test/tc-regression-test.cc: A - B - C with A and C out of range. B's
+    # HELLOs go empty -> asymmetric (1) -> symmetric (6) for both; A's and C's HELLOs then
+    # mark B as their MPR (code 10) from the 4th round on; B's TCs (at 10 s and 15 s, none
+    # before) advertise both A and C; A and C send none.
+    pos = np.array([[0.0, 0, 0], [300.0, 0, 0], [600.0, 0, 0]])
+    a, b, c = 0, 1, 2
+    p = OlsrProvider(3, seed=7)
+    p.reset(pos)
+    e = p.engine
+    e.run_until(0.0, link_graph(pos))
+    assert e.hello_message(b) == [] and e.tc_message(b) is None
+    p.advance(2.0, pos)
+    assert e.hello_message(b) == [(a, 1), (c, 1)]
+    assert e.hello_message(a) == [(b, 1)]
+    p.advance(4.0, pos)
+    assert e.hello_message(b) == [(a, 6), (c, 6)]
+    assert e.hello_message(a) == [(b, 6)]
+    p.advance(5.0, pos)
+    assert e.tc_message(b) is None  # no MPR selectors yet
+    p.advance(6.0, pos)
+    assert e.hello_message(a) == [(b, 10)] and e.hello_message(c) == [(b, 10)]
+    p.advance(10.0, pos)
+    assert e.tc_message(b) == [a, c]
+    assert e.tc_message(a) is None and e.tc_message(c) is None
+    p.advance(15.0, pos)
+    assert e.tc_message(b) == [a, c]
+    # A holds B's TC (topology tuples with last = B); its route to C is 2 hops (2-hop set).
+    assert a * 3 + b in e.topology.keys.tolist()
+    assert p.snapshot().hop_matrix()[a].tolist() == [0, 1, 2]

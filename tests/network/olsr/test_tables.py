@@ -1,0 +1,49 @@
+"""Keyed tables and key sets behind the OLSR information repositories."""
+
+import numpy as np
+import pytest
+
+from swarmgames.network.olsr import tables
+from swarmgames.network.olsr.tables import KeyedTable, KeySet, first_per_key, sorted_contains
+
+
+def test_keyed_table_upsert_get_keep_drop():
+    t = KeyedTable(("a", "b"))
+    t.upsert(np.array([5, 1]), a=np.array([50.0, 10.0]))
+    assert t.keys.tolist() == [1, 5]
+    assert t.get("a", np.array([5, 1, 3])).tolist() == [50.0, 10.0, -np.inf]
+    assert t.get("b", np.array([1])).tolist() == [-np.inf]  # column not given: -inf
+    t.upsert(np.array([5, 7]), a=np.array([55.0, 70.0]), b=np.array([1.0, 2.0]))
+    assert t.keys.tolist() == [1, 5, 7]
+    assert t.cols["a"].tolist() == [10.0, 55.0, 70.0]
+    assert t.cols["b"].tolist() == [-np.inf, 1.0, 2.0]
+    t.drop_prefixes(np.array([0]), base=6)  # keys 1 and 5 have prefix 0
+    assert t.keys.tolist() == [7]
+    t.keep(np.array([False]))
+    assert len(t) == 0
+
+
+@pytest.mark.parametrize("limit", [0, 10**6])
+def test_key_set_and_first_per_key_dense_and_sparse(monkeypatch, limit):
+    # Two implementations that must agree: dense flags / claim arrays and sorted keys.
+    monkeypatch.setattr(tables, "DENSE_LIMIT", limit)
+    s = KeySet(100)
+    assert s.dense == (limit > 0)
+    assert not s.contains(np.array([3])).any()
+    s.add(np.array([3, 9]))
+    s.add(np.array([9, 50]))
+    assert s.contains(np.array([3, 4, 9, 50, 99])).tolist() == [True, False, True, True, False]
+    keys = np.array([4, 2, 4, 7, 2])
+    assert sorted(first_per_key(keys, 100).tolist()) == [0, 1, 3]
+    order = np.array([4, 3, 2, 1, 0])  # reversed: later occurrences come first
+    assert sorted(first_per_key(keys, 100, order).tolist()) == [2, 3, 4]
+
+
+def test_sorted_contains():
+    assert sorted_contains(np.array([1, 4, 9]), np.array([0, 4, 10, 9])).tolist() == [
+        False,
+        True,
+        False,
+        True,
+    ]
+    assert not sorted_contains(np.zeros(0, np.int64), np.array([1])).any()
