@@ -306,7 +306,7 @@ def compare(
             cfg = (config or NetworkConfig()).model_copy(update={"backend": backend})
             child = np.random.default_rng(rng.integers(2**63))
             # OLSR with TCs, as replay builds it, so that routes of any length are compared.
-            backend = make_provider(cfg, trace.n_nodes, child, hello_only=False)
+            backend = make_provider(cfg, trace.n_nodes, child, full_tables=True)
         start = _time.perf_counter()
         result = replay(trace, backend, sample_every)
         wall[label] = _time.perf_counter() - start
