@@ -62,6 +62,38 @@ def _interactive() -> bool:
     return sys.stderr.isatty()
 
 
+class _ProgressBar:
+    """A transient rich progress bar whose callback takes ``(done, total)``; or nothing."""
+
+    def __init__(self, description: str, enabled: bool) -> None:
+        self.description, self.enabled = description, enabled
+        self.bar: Any = None
+
+    def __enter__(self) -> Callable[[float, float], None] | None:
+        if not self.enabled:
+            return None
+        from rich.progress import BarColumn, Progress, TaskProgressColumn, TimeElapsedColumn
+
+        self.bar = Progress(
+            "[progress.description]{task.description}",
+            BarColumn(),
+            TaskProgressColumn(),
+            TimeElapsedColumn(),
+            transient=True,
+        )
+        self.bar.__enter__()
+        task = self.bar.add_task(self.description, total=None)
+
+        def update(done: float, total: float) -> None:
+            self.bar.update(task, completed=done, total=total)
+
+        return update
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(*exc)
+
+
 def _console():
     from rich.console import Console
 
@@ -202,7 +234,13 @@ def reproduce(
     if "fig1" in folders:
         from swarmgames.experiments.fig1 import reproduce_fig1
 
-        res1 = reproduce_fig1(backend, seed=seed, config=base.network, out=folders["fig1"])
+        with _ProgressBar(f"Figure 1 ({backend})", progress) as tick:
+            res1 = reproduce_fig1(
+                backend, seed=seed, config=base.network, out=folders["fig1"], progress=tick
+            )
+        for layout, steps in res1.steps().items():
+            where = ", ".join(f"{a:g}/{b:g}" for a, b in steps)
+            click.echo(f"Figure 1, {layout}: direct neighbours change between {where} m")
         click.echo(
             f"Figure 1 ({backend}): {len(res1.to_frame())} points -> {folders['fig1'].path}/"
         )
@@ -247,6 +285,7 @@ sample_option = click.option(
 @out_option
 @force_option
 @set_option
+@click.option("--no-progress", is_flag=True, help="Do not show a progress bar.")
 @_guarded
 def replay(
     positions: Path,
@@ -256,6 +295,7 @@ def replay(
     out: Path | None,
     force: bool,
     overrides: tuple[str, ...],
+    no_progress: bool,
 ) -> None:
     """Replay a positions trace and write every robot's hop counts (hops.csv), a per-time
     summary (summary.csv) and a plot.
@@ -270,7 +310,16 @@ def replay(
     cfg = resolve_scenario(None, overrides).network
     trace = read_positions(positions)  # validate before creating the folder
     folder = _open_run_folder(out, f"replay-{positions.stem}", force)
-    res = replay_trace(trace, backend, sample_every=sample_every, seed=seed, config=cfg, out=folder)
+    with _ProgressBar(f"replay ({backend})", not no_progress and _interactive()) as tick:
+        res = replay_trace(
+            trace,
+            backend,
+            sample_every=sample_every,
+            seed=seed,
+            config=cfg,
+            out=folder,
+            progress=tick,
+        )
     s = res.summary
     click.echo(
         f"{backend}: {trace.n_nodes} robots, {len(s)} samples, {len(res.hops)} routes; "
