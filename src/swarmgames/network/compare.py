@@ -41,6 +41,7 @@ import pandas as pd
 from swarmgames.config import NetworkConfig
 from swarmgames.errors import ConfigError
 from swarmgames.network.factory import BACKENDS, make_provider
+from swarmgames.network.propagation import new_shadowing_key
 from swarmgames.network.provider import NeighbourhoodProvider
 from swarmgames.network.replay import replay
 from swarmgames.network.trace import PositionTrace, read_positions
@@ -298,6 +299,9 @@ def compare(
             f"(got {sample_every})"
         )
     rng = as_generator(seed)
+    # One static shadowing field for every backend: they are compared on the same channel.
+    shadowed = (config or NetworkConfig()).radio.shadowing_sigma_db > 0
+    channel = new_shadowing_key(rng) if shadowed else None
     labels = _labels([b if isinstance(b, str) else b.name for b in backends])
     hops: dict[str, pd.DataFrame] = {}
     wall: dict[str, float] = {}
@@ -306,7 +310,9 @@ def compare(
             cfg = (config or NetworkConfig()).model_copy(update={"backend": backend})
             child = np.random.default_rng(rng.integers(2**63))
             # OLSR with TCs, as replay builds it, so that routes of any length are compared.
-            backend = make_provider(cfg, trace.n_nodes, child, full_tables=True)
+            backend = make_provider(
+                cfg, trace.n_nodes, child, full_tables=True, shadowing_key=channel
+            )
         start = _time.perf_counter()
         result = replay(trace, backend, sample_every)
         wall[label] = _time.perf_counter() - start

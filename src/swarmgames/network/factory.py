@@ -22,6 +22,7 @@ def make_provider(
     n_nodes: int,
     seed: int | np.random.Generator | None = None,
     full_tables: bool = False,
+    shadowing_key: int | None = None,
 ) -> NeighbourhoodProvider:
     """The provider named by ``config.backend`` for ``n_nodes`` robots.
 
@@ -38,6 +39,9 @@ def make_provider(
         N_i(h) needs: the ``olsr`` backend follows ``config.olsr.hello_only`` (``'auto'``:
         HELLO-only when ``config.hops <= 2``, where TCs cannot change N_i(h)) and the
         ``oracle`` keeps routes of at most ``config.hops`` hops.
+    shadowing_key : int, optional
+        Key of the static per-pair shadowing field (olsr, oracle, ns3); backends given the same
+        key see the same channel. Default: drawn from ``seed`` when shadowing is on.
 
     Raises
     ------
@@ -51,10 +55,16 @@ def make_provider(
     if name == "olsr":
         flag = config.olsr.hello_only
         hello_only = (config.hops <= 2 if flag == "auto" else bool(flag)) and not full_tables
-        return OlsrProvider(n_nodes, config.radio, config.olsr, hello_only, seed)
+        return OlsrProvider(
+            n_nodes, config.radio, config.olsr, hello_only, seed, shadowing_key=shadowing_key
+        )
     if name == "oracle":
         return OracleProvider(
-            n_nodes, config.radio, max_hops=None if full_tables else config.hops, seed=seed
+            n_nodes,
+            config.radio,
+            max_hops=None if full_tables else config.hops,
+            seed=seed,
+            shadowing_key=shadowing_key,
         )
     if name == "disk":
         return DiskProvider(n_nodes, config.disk_radius_m)
@@ -73,5 +83,5 @@ def make_provider(
                 "the 'ns3' backend is not part of this installation of swarmgames"
             ) from None
 
-        return Ns3Provider(config, n_nodes, seed)
+        return Ns3Provider(config, n_nodes, seed, shadowing_key=shadowing_key)
     raise ConfigError(f"network.backend must be one of {', '.join(BACKENDS)} (got {name!r})")

@@ -3,7 +3,9 @@
 Candidate pairs come from a scipy ``cKDTree.query_pairs`` within the model's largest possible
 range (never an all-pairs loop), then the received power of each candidate is computed
 vectorised and compared with the reception threshold. One draw of shadowing / fading is made per
-unordered pair, so the graph is symmetric (OLSR only uses symmetric links anyway).
+unordered pair, so the graph is symmetric (OLSR only uses symmetric links anyway). Shadowing is
+the pair's static draw when the model has a shadowing key (providers always give it one);
+fading is drawn anew at every call, that is at every position update.
 
 With a deterministic model (the default Friis) the range is a hard cut: ``d <= 368.84 m``
 (REFERENCE.md section 2). With shadowing or fading the range is probabilistic; the KD-tree
@@ -120,5 +122,6 @@ def link_graph(
         empty = np.zeros(0, dtype=np.int32)
         return LinkGraph.from_pairs(n, empty, empty)
     d = np.linalg.norm(pos[pairs[:, 0]] - pos[pairs[:, 1]], axis=1)
-    keep = model.rx_power(d, rng) >= model.radio.rx_threshold_dbm
+    power = model.rx_power(d, rng, pairs=(pairs[:, 0], pairs[:, 1]))
+    keep = power >= model.radio.rx_threshold_dbm
     return LinkGraph.from_pairs(n, pairs[keep, 0], pairs[keep, 1])

@@ -56,6 +56,7 @@ import numpy as np
 from swarmgames.config import NetworkConfig, OlsrConfig, RadioConfig
 from swarmgames.errors import ConfigError
 from swarmgames.network.ns3_import import load_ns3, quiet_stderr
+from swarmgames.network.propagation import new_shadowing_key, pair_gaussians
 from swarmgames.network.topology import TopologySnapshot
 from swarmgames.network.validation import as_generator, check_positions, check_time
 
@@ -115,10 +116,15 @@ class Ns3Provider:
         Number of robots; if given, ``reset`` checks the positions against it.
     seed : int, numpy.random.Generator or None
         Source of every random choice: each ``reset`` draws ns-3's run number (OLSR jitter,
-        Nakagami fading) and the shadowing losses from it. Equal seeds give equal runs.
+        Nakagami fading, redrawn per packet by ns-3) from it; the static shadowing field's key
+        is drawn once, at construction. Equal seeds give equal runs.
     run : int, optional
         Use this ns-3 run number (``RngSeedManager.SetRun``, with seed 1) at every ``reset``
         instead of drawing one: reproduces a run recorded with plain ns-3.
+    shadowing_key : int, optional
+        Key of the static per-pair shadowing field (see
+        :func:`~swarmgames.network.propagation.pair_gaussians`); providers given the same key
+        see the same channel. Default: drawn from ``seed`` when shadowing is on.
 
     Raises
     ------
@@ -152,6 +158,7 @@ class Ns3Provider:
         seed: int | np.random.Generator | None = None,
         *,
         run: int | None = None,
+        shadowing_key: int | None = None,
     ) -> None:
         self.config = NetworkConfig() if config is None else config
         if not isinstance(self.config, NetworkConfig):
@@ -164,6 +171,9 @@ class Ns3Provider:
             raise ValueError(f"run must be an integer >= 1 (got {run!r})")
         self._run = None if run is None else int(run)
         self._rng = as_generator(seed)
+        self._shadowing_key = shadowing_key
+        if self.config.radio.shadowing_sigma_db > 0 and shadowing_key is None:
+            self._shadowing_key = new_shadowing_key(self._rng)
         self._ns = load_ns3()
         self._token = next(_tokens)
         self._n = 0
@@ -355,7 +365,8 @@ class Ns3Provider:
             matrix.SetDefaultLoss(0.0)
             n = len(self._mobility)
             iu, ju = np.triu_indices(n, k=1)
-            draws = self._rng.normal(0.0, radio.shadowing_sigma_db, size=iu.size)
+            # The same static per-pair field as the built-in providers with the same key.
+            draws = radio.shadowing_sigma_db * pair_gaussians(iu, ju, self._shadowing_key)
             for i, j, db in zip(iu.tolist(), ju.tolist(), draws.tolist(), strict=True):
                 matrix.SetLoss(self._mobility[i], self._mobility[j], db, True)
             last.SetNext(matrix)

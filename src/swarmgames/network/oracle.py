@@ -13,7 +13,7 @@ from swarmgames.config import RadioConfig
 from swarmgames.network.baselines import _InstantProvider
 from swarmgames.network.links import LinkGraph, link_graph
 from swarmgames.network.olsr.tables import sorted_contains
-from swarmgames.network.propagation import PropagationModel
+from swarmgames.network.propagation import channel_model
 from swarmgames.network.topology import TopologySnapshot
 from swarmgames.network.validation import as_generator
 
@@ -129,6 +129,10 @@ class OracleProvider(_InstantProvider):
         of routes rather than N^2.
     seed : int, Generator or None
         Seed of shadowing / fading draws (unused by deterministic models).
+    shadowing_key : int, optional
+        Key of the static per-pair shadowing field (see
+        :func:`~swarmgames.network.propagation.pair_gaussians`); providers given the same key
+        see the same channel. Default: drawn from ``seed`` when shadowing is on.
 
     Examples
     --------
@@ -145,11 +149,12 @@ class OracleProvider(_InstantProvider):
         radio: RadioConfig | None = None,
         max_hops: int | None = None,
         seed: int | np.random.Generator | None = None,
+        shadowing_key: int | None = None,
     ) -> None:
         super().__init__(n_nodes)
-        self.model = PropagationModel(radio or RadioConfig())
         self.max_hops = max_hops
         self._rng = as_generator(seed)
+        self.model = channel_model(radio or RadioConfig(), self._rng, shadowing_key)
 
     def _snapshot(self, pos: np.ndarray) -> TopologySnapshot:
         g = link_graph(pos, self.model, self._rng)

@@ -20,6 +20,12 @@ Log-distance (ns-3 ``LogDistancePropagationLossModel``)::
 Shadowing adds ``-X`` with ``X ~ N(0, sigma^2)`` dB; Nakagami-m fading multiplies the received
 power (linear, mW) by a ``Gamma(m, 1/m)`` gain of mean 1 (m = 1 is Rayleigh).
 
+Shadowing is *static per pair of robots*: with a ``shadowing_key`` the loss of the pair
+``{i, j}`` is a fixed draw for the whole run (:func:`pair_gaussians`, a counter-based draw keyed
+by a number taken from the provider's Generator), as the ns-3 backend does with a
+``MatrixPropagationLossModel``. Providers built on the same key see the same channel, so
+``compare`` measures two backends on one channel realisation. Fading stays random per evaluation.
+
 References
 ----------
 .. [1] ns-3 3.44, ``src/propagation/model/propagation-loss-model.cc`` (Friis, LogDistance) and
@@ -40,9 +46,12 @@ from swarmgames.config import RadioConfig
 __all__ = [
     "SPEED_OF_LIGHT",
     "PropagationModel",
+    "channel_model",
     "friis_rx_power",
     "log_distance_rx_power",
     "max_range",
+    "new_shadowing_key",
+    "pair_gaussians",
 ]
 
 #: Speed of light in vacuum, m/s (the value ns-3 uses).
@@ -51,6 +60,45 @@ SPEED_OF_LIGHT = 299_792_458.0
 #: Tail probability used to bound the random range (shadowing / fading): a pair farther than the
 #: bound would be linked with probability below this.
 RANGE_TAIL_PROBABILITY = 1e-6
+
+
+_MASK64 = np.uint64(0xFFFFFFFFFFFFFFFF)
+
+
+def _splitmix64(x: np.ndarray) -> np.ndarray:
+    # Steele, Lea and Flood, "Fast splittable pseudorandom number generators", OOPSLA 2014.
+    x = x + np.uint64(0x9E3779B97F4A7C15)
+    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return x ^ (x >> np.uint64(31))
+
+
+def pair_gaussians(i: np.ndarray, j: np.ndarray, key: int) -> np.ndarray:
+    """Standard normal draws, one per unordered pair ``{i, j}``, fixed by ``key``.
+
+    A counter-based generator: the draw of a pair depends only on ``(key, min(i, j),
+    max(i, j))``, so it is the same whenever and in whichever order the pair is evaluated, and
+    no N x N table is stored (10 000 robots have 5e7 pairs).
+
+    Examples
+    --------
+    >>> a = pair_gaussians(np.array([0, 3]), np.array([3, 0]), key=7)
+    >>> bool(a[0] == a[1])
+    True
+    """
+    from scipy.special import ndtri
+
+    lo = np.minimum(i, j).astype(np.uint64)
+    hi = np.maximum(i, j).astype(np.uint64)
+    with np.errstate(over="ignore"):
+        h = _splitmix64(_splitmix64(np.uint64(key) ^ lo) ^ (hi * np.uint64(0xD1B54A32D192ED03)))
+    u = ((h >> np.uint64(11)).astype(np.float64) + 0.5) * 2.0**-53  # in (0, 1)
+    return ndtri(u)
+
+
+def new_shadowing_key(rng: np.random.Generator) -> int:
+    """A shadowing key drawn from ``rng`` (the provider's seeded Generator)."""
+    return int(rng.integers(0, 2**63))
 
 
 def friis_rx_power(
@@ -136,6 +184,7 @@ class PropagationModel:
     """
 
     radio: RadioConfig = field(default_factory=RadioConfig)
+    shadowing_key: int | None = None
 
     @property
     def random(self) -> bool:
@@ -153,22 +202,42 @@ class PropagationModel:
             distance, r.tx_power_dbm, r.exponent, r.reference_distance_m, r.reference_loss_db
         )
 
-    def rx_power(self, distance: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
-        """Received power, dBm, with shadowing and fading drawn from ``rng`` when switched on.
+    def rx_power(
+        self,
+        distance: np.ndarray,
+        rng: np.random.Generator | None = None,
+        pairs: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> np.ndarray:
+        """Received power, dBm, with shadowing and fading when switched on.
+
+        Parameters
+        ----------
+        distance : ndarray
+            Distances, metres.
+        rng : numpy Generator, optional
+            Source of fading draws (and of shadowing draws without a key).
+        pairs : (i, j) arrays of the distances' shape, optional
+            Robot indices of each distance. With ``shadowing_key`` set, the shadowing of a pair
+            is its static draw (:func:`pair_gaussians`); otherwise it is drawn from ``rng``.
 
         Raises
         ------
         ValueError
-            If the model is random and no ``rng`` is given.
+            If a random effect needs ``rng`` and none is given.
         """
         p = self.mean_rx_power(distance)
         if not self.random:
             return p
-        if rng is None:
-            raise ValueError("rng must be a numpy Generator when shadowing or fading is on")
         r = self.radio
+        static = pairs is not None and self.shadowing_key is not None
+        if rng is None and (r.nakagami_m is not None or not static):
+            raise ValueError("rng must be a numpy Generator when shadowing or fading is on")
         if r.shadowing_sigma_db > 0:
-            p = p - rng.normal(0.0, r.shadowing_sigma_db, size=p.shape)
+            if static:
+                z = pair_gaussians(pairs[0], pairs[1], self.shadowing_key)
+            else:
+                z = rng.normal(0.0, 1.0, size=p.shape)
+            p = p - r.shadowing_sigma_db * z
         if r.nakagami_m is not None:
             gain = rng.gamma(r.nakagami_m, 1.0 / r.nakagami_m, size=p.shape)
             with np.errstate(divide="ignore"):
@@ -183,6 +252,17 @@ class PropagationModel:
         mean power plus the ``1 - 1e-6`` quantile of the random gain reaches the threshold.
         """
         return max_range(self.radio)
+
+
+def channel_model(
+    radio: RadioConfig, rng: np.random.Generator, shadowing_key: int | None = None
+) -> PropagationModel:
+    """The propagation model of a provider: with shadowing on, a static per-pair channel keyed
+    by ``shadowing_key`` or, if None, by a key drawn from ``rng`` (only then, so runs without
+    shadowing draw exactly what they drew before)."""
+    if radio.shadowing_sigma_db > 0 and shadowing_key is None:
+        shadowing_key = new_shadowing_key(rng)
+    return PropagationModel(radio, shadowing_key if radio.shadowing_sigma_db > 0 else None)
 
 
 def _random_margin_db(radio: RadioConfig) -> float:

@@ -7,7 +7,7 @@ import numpy as np
 from swarmgames.config import OlsrConfig, RadioConfig
 from swarmgames.network.links import link_graph
 from swarmgames.network.olsr.engine import OlsrEngine
-from swarmgames.network.propagation import PropagationModel
+from swarmgames.network.propagation import channel_model
 from swarmgames.network.topology import TopologySnapshot
 from swarmgames.network.validation import as_generator, check_positions, check_time
 
@@ -30,6 +30,10 @@ class OlsrProvider:
         for h <= 2 and makes 10 000 robots affordable.
     seed : int, Generator or None
         Seed of the message jitter (and of shadowing / fading draws).
+    shadowing_key : int, optional
+        Key of the static per-pair shadowing field (see
+        :func:`~swarmgames.network.propagation.pair_gaussians`); providers given the same key
+        see the same channel. Default: drawn from ``seed`` when shadowing is on.
 
     Raises
     ------
@@ -54,11 +58,11 @@ class OlsrProvider:
         olsr: OlsrConfig | None = None,
         hello_only: bool = False,
         seed: int | np.random.Generator | None = None,
+        shadowing_key: int | None = None,
     ) -> None:
         if int(n_nodes) < 1:
             raise ValueError(f"n_nodes must be >= 1 (got {n_nodes})")
         self.n_nodes = int(n_nodes)
-        self.model = PropagationModel(radio or RadioConfig())
         self.olsr = olsr or OlsrConfig()
         if self.olsr.max_jitter_s >= self.olsr.hello_interval_s:
             # Each HELLO round must be on the air before the next is built (ns-3: jitter is a
@@ -69,6 +73,7 @@ class OlsrProvider:
             )
         self.hello_only = bool(hello_only)
         self._rng = as_generator(seed)
+        self.model = channel_model(radio or RadioConfig(), self._rng, shadowing_key)
         self._engine: OlsrEngine | None = None
         self._time = 0.0
 
