@@ -158,7 +158,6 @@ def solve_stage(
             actions = sample_actions(sol.marginals[0], batch.action_mask[0], actions, gen)
     else:
         messages = broadcast(snapshot, h, states)
-        n = messages.n_robots
         sizes = np.diff(messages.indptr)
         groups = size_groups(sizes, int(buckets), int(action_model.n_actions))
         batches, sols = [], []

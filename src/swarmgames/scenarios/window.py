@@ -201,9 +201,7 @@ def windowed_unary(
         o2 = np.full((b, K, C), d2f32, dtype=f32)
         if gb.size:
             ddx = ((gx[gb, gk] - st[gb, gl, 0, None]) ** 2).astype(f32)  # (P, side)
-            ddy = ((gy[gb, gk] - st[gb, gl, 1, None]) ** 2 + st[gb, gl, 2, None] ** 2).astype(
-                f32
-            )
+            ddy = ((gy[gb, gk] - st[gb, gl, 1, None]) ** 2 + st[gb, gl, 2, None] ** 2).astype(f32)
             d2 = (ddy[:, :, None] + ddx[:, None, :]).reshape(-1, side * side)
             seg = gb * K + gk  # sorted (np.nonzero is row-major)
             starts = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
@@ -216,13 +214,13 @@ def windowed_unary(
         key = np.concatenate(
             [st.reshape(b * K, 3)[rows], nxt[lo:hi].reshape(b * K, A * 3)[rows]], axis=1
         )
-        uniq, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+        _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
         inv = inv.reshape(-1)
         src = rows[first]
         ub, uk = np.divmod(src, K)
         nx_u = nxt[lo:hi][ub, uk]  # (U, A, 3)
         ddx = ((gx[ub, uk][:, None, :] - nx_u[..., 0, None]) ** 2).astype(f32)  # (U, A, side)
-        ddy = ((gy[ub, uk][:, None, :] - nx_u[..., 1, None]) ** 2 + nx_u[..., 2, None] ** 2)
+        ddy = (gy[ub, uk][:, None, :] - nx_u[..., 1, None]) ** 2 + nx_u[..., 2, None] ** 2
         d2 = (ddy.astype(f32)[..., :, None] + ddx[..., None, :]).reshape(-1, A, side * side)
         f = psi(np.ascontiguousarray(d2[..., flat]))  # (U, A, C)
 
