@@ -62,7 +62,8 @@ def scaled_config(
     Returns
     -------
     ScenarioConfig
-        ROI centred at the origin, UAVs starting uniformly over the ROI's disc.
+        ROI centred at the origin, UAVs starting uniformly over the ROI's disc, payoff tables
+        in float32 (``game.precision``).
 
     Raises
     ------
@@ -92,5 +93,6 @@ def scaled_config(
         signal_floor_dbm=signal_floor_dbm,
     )
     data["network"]["backend"] = backend
+    data["game"]["precision"] = "float32"
     data["name"] = f"{base.name}-n{n_robots}"
     return ScenarioConfig.model_validate(data)

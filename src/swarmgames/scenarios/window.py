@@ -169,10 +169,11 @@ def windowed_unary(
     c1 = f32(5.0 * signal.exponent)
     d02 = f32(signal.reference_distance_m**2)
 
+    c0 = c0 + c1 * np.log10(d02)
+
     def psi(d2):
         # ψ_F from squared distances, in place: floor above d_F, clamp below d0.
         np.clip(d2, d02, d2f32, out=d2)
-        d2 /= d02
         np.log10(d2, out=d2)
         d2 *= -c1
         d2 += c0
@@ -198,15 +199,21 @@ def windowed_unary(
         dxy = st[gb, gk, :2] - st[gb, gl, :2]
         near = np.einsum("ij,ij->i", dxy, dxy) <= pair_reach**2
         gb, gk, gl = gb[near], gk[near], gl[near]
-        o2 = np.full((b, K, C), d2f32, dtype=f32)
+        o2 = np.full((b * K, side * side), d2f32, dtype=f32)
         if gb.size:
             ddx = ((gx[gb, gk] - st[gb, gl, 0, None]) ** 2).astype(f32)  # (P, side)
             ddy = ((gy[gb, gk] - st[gb, gl, 1, None]) ** 2 + st[gb, gl, 2, None] ** 2).astype(f32)
-            d2 = (ddy[:, :, None] + ddx[:, None, :]).reshape(-1, side * side)
-            seg = gb * K + gk  # sorted (np.nonzero is row-major)
+            # Segment minimum over each variable's others, one rank of the segments at a time
+            # (pairs are sorted by variable: np.nonzero is row-major).
+            seg = gb * K + gk
             starts = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
-            best = np.minimum.reduceat(d2, starts, axis=0)[:, flat]
-            o2.reshape(b * K, C)[seg[starts]] = np.minimum(best, d2f32)
+            rank = np.arange(seg.size) - np.repeat(starts, np.diff(np.r_[starts, seg.size]))
+            for j in range(int(rank.max()) + 1):
+                sel = np.flatnonzero(rank == j)
+                d2 = ddy[sel, :, None] + ddx[sel, None, :]
+                rows_j = seg[sel]
+                o2[rows_j] = np.minimum(o2[rows_j], d2.reshape(sel.size, -1))
+        o2 = np.ascontiguousarray(o2[:, flat]).reshape(b, K, C)
         o = psi(o2)
 
         # Signal of every action of every distinct state over its window, shared by games.
