@@ -93,14 +93,33 @@ def floor_distance_sq(signal: SignalModel, floor_dbm: float) -> float:
     return float(max(d, d0) ** 2)
 
 
-def _disc_offsets(r: int) -> tuple[np.ndarray, np.ndarray]:
-    """Cell offsets (dy, dx) of the disc of radius ``r + 0.5`` cells, and their flat index
-    into the (2r + 1)² square."""
+def _disc_offsets(rho: float) -> tuple[np.ndarray, np.ndarray]:
+    """Cell offsets (dy, dx) of the disc of radius ``rho`` cells, and their flat index into
+    the (2r + 1)² square, ``r = ceil(rho)``."""
+    r = int(np.ceil(rho))
     j = np.arange(-r, r + 1)
     dy, dx = np.meshgrid(j, j, indexing="ij")
-    keep = (dx**2 + dy**2 <= (r + 0.5) ** 2).ravel()
+    keep = (dx**2 + dy**2 <= rho**2).ravel()
     flat = np.flatnonzero(keep)
     return np.column_stack([dy.ravel()[keep], dx.ravel()[keep]]), flat
+
+
+def _morton(ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
+    """Z-order (Morton) code of non-negative cell indices < 2**21: nearby cells, nearby codes."""
+
+    def spread(v):
+        v = v.astype(np.uint64) & np.uint64(0x1FFFFF)
+        for shift, mask in (
+            (32, 0x1F00000000FFFF),
+            (16, 0x1F0000FF0000FF),
+            (8, 0x100F00F00F00F00F),
+            (4, 0x10C30C30C30C30C3),
+            (2, 0x1249249249249249),
+        ):
+            v = (v | (v << np.uint64(shift))) & np.uint64(mask)
+        return v
+
+    return spread(ix) | (spread(iy) << np.uint64(1))
 
 
 def windowed_unary(
@@ -149,10 +168,13 @@ def windowed_unary(
     reach_h = float(np.sqrt(max(d2f - float(z2.min(initial=np.inf)), 0.0)))
     disp = np.linalg.norm(nxt[..., :2] - states[:, :, None, :2], axis=-1)
     s_max = float(disp[amask].max(initial=0.0))
-    r = int(np.ceil((reach_h + s_max) / a)) + 1
+    # A cell's centre is within a/sqrt(2) of the cell holding the UAV: every cell an action
+    # reaches above the floor lies within rho cells of the window's centre cell.
+    rho = (reach_h + s_max) / a + np.sqrt(0.5)
+    r = int(np.ceil(rho))
     if r > raster.pad:
         raise ValueError(f"raster pad must be >= the window radius {r} cells (got {raster.pad})")
-    offs, flat = _disc_offsets(r)
+    offs, flat = _disc_offsets(rho)
     side = 2 * r + 1
     C = flat.size
     # Window of each variable: the disc of cells around its current cell.
@@ -161,7 +183,10 @@ def windowed_unary(
     ny, nx = raster.weights.shape
     ctr[..., 0] = np.clip(ctr[..., 0], r, nx - 1 - r)
     ctr[..., 1] = np.clip(ctr[..., 1], r, ny - 1 - r)
-    pair_reach = reach_h + (r + 1) * np.sqrt(2.0) * a
+    # Another variable changes o_k only where it reaches above the floor: within R_F of it.
+    # Cells of the window beyond every action's reach hold the floor for all of k's actions
+    # (a term free of x_k whatever o_k is), so o_k is needed only within R_F + s of k.
+    pair_reach = 2.0 * reach_h + s_max + a
     f32 = np.float32
     d2f32 = f32(d2f)
     tau = f32(softness_db)
@@ -180,14 +205,18 @@ def windowed_unary(
         return d2
 
     step = max(1, chunk_elems // max(1, K * A * C))
+    # Games in spatial order (by the cell of their first variable): the games of a chunk
+    # share most of their members, whose action signals are then computed once.
+    order = np.argsort(_morton(ctr[:, 0, 0], ctr[:, 0, 1]), kind="stable")
     jr = np.arange(-r, r + 1)
     for lo in range(0, B, step):
         hi = min(B, lo + step)
-        m = mask[lo:hi]
+        sl = order[lo:hi]
+        m = mask[sl]
         b = hi - lo
-        st = states[lo:hi]
-        cx = ctr[lo:hi, :, 0]
-        cy = ctr[lo:hi, :, 1]
+        st = states[sl]
+        cx = ctr[sl, :, 0]
+        cy = ctr[sl, :, 1]
         # Cell centres of each variable's window, relative coordinates per axis (b, K, side).
         gx = raster.origin[0] + (cx[..., None] + jr) * a
         gy = raster.origin[1] + (cy[..., None] + jr) * a
@@ -219,13 +248,13 @@ def windowed_unary(
         # Signal of every action of every distinct state over its window, shared by games.
         rows = np.flatnonzero(m.ravel())
         key = np.concatenate(
-            [st.reshape(b * K, 3)[rows], nxt[lo:hi].reshape(b * K, A * 3)[rows]], axis=1
+            [st.reshape(b * K, 3)[rows], nxt[sl].reshape(b * K, A * 3)[rows]], axis=1
         )
         _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
         inv = inv.reshape(-1)
         src = rows[first]
         ub, uk = np.divmod(src, K)
-        nx_u = nxt[lo:hi][ub, uk]  # (U, A, 3)
+        nx_u = nxt[sl][ub, uk]  # (U, A, 3)
         ddx = ((gx[ub, uk][:, None, :] - nx_u[..., 0, None]) ** 2).astype(f32)  # (U, A, side)
         ddy = (gy[ub, uk][:, None, :] - nx_u[..., 1, None]) ** 2 + nx_u[..., 2, None] ** 2
         d2 = (ddy.astype(f32)[..., :, None] + ddx[..., None, :]).reshape(-1, A, side * side)
@@ -248,6 +277,6 @@ def windowed_unary(
         val = np.matmul(t, w.reshape(b * K, C)[rows][:, :, None])[..., 0]  # (V, A)
         blk = np.zeros((b * K, A))
         blk[rows] = val
-        out[lo:hi] = blk.reshape(b, K, A)
+        out[sl] = blk.reshape(b, K, A)
     out[~amask] = 0.0
     return out
