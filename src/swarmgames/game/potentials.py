@@ -58,9 +58,9 @@ class Potentials(Protocol):
 
     Optional cheaper form: a method ``pair_table(batch, dtype) -> (B, K, A, K, A)`` returning
     the symmetrised table ``φ_p(k, a, l, c) + φ_p(l, c, k, a)`` directly in the solver's
-    layout (in ``dtype``). When present (and the batch has no ``pair_mask``),
-    :func:`evaluate_payoffs` uses it instead of ``pairwise``: no ``(B, K, K, A, A)`` table,
-    no transposed copies, half the peak memory.
+    layout (in ``dtype``), as a new array that the engine may overwrite. When present (and
+    the batch has no ``pair_mask``), :func:`evaluate_payoffs` uses it instead of
+    ``pairwise``: no ``(B, K, K, A, A)`` table, no transposed copies, half the peak memory.
     """
 
     def unary(self, batch: LocalGameBatch) -> np.ndarray: ...
@@ -308,14 +308,19 @@ def _symmetric_table(batch: LocalGameBatch, table_fn, alpha_b: float, dtype) -> 
         & amask[:, :, :, None, None]
         & amask[:, None, None, :, :]
     )
-    bad = valid & ~np.isfinite(w)
-    if bad.any():
+    bad = None if np.isfinite(w).all() else valid & ~np.isfinite(w)
+    if bad is not None and bad.any():
         gb, gk, ga, gl, gc = (int(v) for v in np.argwhere(bad)[0])
         raise ValueError(
             f"pairwise potential is not finite ({w[gb, gk, ga, gl, gc]}) for "
             f"{_where(batch, gb, gk)}, action {ga}, with variable {gl} "
             f"(robot {int(batch.members[gb, gl])}), action {gc}"
         )
+    if w.dtype == dtype and w.flags.writeable and w.flags.c_contiguous:
+        # The table is the potentials' new array (the contract of pair_table): scale in place.
+        w *= dtype.type(alpha_b)
+        np.copyto(w, 0, where=~valid)
+        return w
     pair = np.zeros((b, k, a, k, a), dtype=dtype)
     np.multiply(w, dtype.type(alpha_b), out=pair, where=valid, casting="unsafe")
     return pair

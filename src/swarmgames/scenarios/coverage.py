@@ -286,18 +286,43 @@ class CoveragePotentials:
     def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
         """Symmetrised eq. 5 in the engine's layout, ``(B, K, A, K, A)``:
         :math:`\\phi_p(k, a, l, c) + \\phi_p(l, c, k, a) = 2\\,\\psi_R(|S_k(a) - S_l(c)|)`
-        (the engine's cheaper form of :meth:`pairwise`, same values, no transposes); entries
-        of padding and invalid actions are finite but meaningless."""
+        (the engine's cheaper form of :meth:`pairwise`; a new array); entries of padding and
+        invalid actions are finite but meaningless.
+
+        In float64 the values equal :meth:`pairwise` bit for bit; in float32 the squared
+        distances come from one batched product per game, :math:`|p|^2 + |q|^2 - 2 p \\cdot q`
+        in float64 on coordinates relative to the game's first position, and the logarithm
+        in float32."""
         dtype = np.dtype(dtype)
         nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
         B, K, A = nxt.shape[:3]
         pts = nxt.reshape(B, K * A, 3)
         out = np.empty((B, K * A, K * A), dtype=dtype)
         step = max(1, self.chunk_elems // max(1, (K * A) ** 2))
+        sig = self.signal
         if dtype == np.float32:
-            # Relative to each game's first position (kilometres at most): float32 differences
-            # then keep 0.1 mm, far below what changes the signal.
-            pts = (pts - pts[:, :1]).astype(np.float32)
+            rel = pts - pts[:, :1]
+            sq = np.einsum("bic,bic->bi", rel, rel)
+            d02 = np.float32(sig.reference_distance_m**2)
+            scale = np.float32(-10.0 * sig.exponent)  # 2 ψ = 2 (T0 - L0) - 10 n log10(d²/d0²)
+            offset = np.float32(
+                2.0 * (sig.t0_dbm - sig.l0_db) + 10.0 * sig.exponent * np.log10(d02)
+            )
+            for lo in range(0, B, step):
+                hi = min(B, lo + step)
+                d2 = out[lo:hi]
+                r = rel[lo:hi]
+                # |p - q|² = |p|² + |q|² - 2 p·q in float64 (no cancellation loss), then float32.
+                g = np.matmul(r, r.transpose(0, 2, 1))
+                g *= -2.0
+                g += sq[lo:hi, :, None]
+                g += sq[lo:hi, None, :]
+                d2[...] = g
+                np.maximum(d2, d02, out=d2)
+                np.log10(d2, out=d2)
+                d2 *= scale
+                d2 += offset
+            return out.reshape(B, K, A, K, A)
         for lo in range(0, B, step):
             hi = min(B, lo + step)
             p = pts[lo:hi]
@@ -306,6 +331,6 @@ class CoveragePotentials:
             for c in (1, 2):
                 diff = p[:, :, None, c] - p[:, None, :, c]
                 d2 += diff * diff
-            val = self.signal.power_sq(d2.astype(dtype, copy=False), dtype=dtype.type)
+            val = sig.power_sq(d2.astype(dtype, copy=False), dtype=dtype.type)
             np.add(val, val, out=out[lo:hi])
         return out.reshape(B, K, A, K, A)

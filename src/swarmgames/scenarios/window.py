@@ -205,6 +205,9 @@ def windowed_unary(
         return d2
 
     step = max(1, chunk_elems // max(1, K * A * C))
+    # t = ψ_F(next) - o_k <= ψ_R(lowest altitude) - F: exp(t / τ) stays finite below 80.
+    psi_top = float(signal.power(np.sqrt(max(float(z2.min(initial=np.inf)), 0.0))))
+    fast_softplus = softness_db > 0 and (psi_top - floor_dbm) / softness_db < 80.0
     # Games in spatial order (by the cell of their first variable): the games of a chunk
     # share most of their members, whose action signals are then computed once.
     order = np.argsort(_morton(ctr[:, 0, 0], ctr[:, 0, 1]), kind="stable")
@@ -263,7 +266,13 @@ def windowed_unary(
         # Gain over the others' best, weighted and summed over the window.
         t = f[inv]  # (V, A, C) for the valid variables V
         t -= o.reshape(b * K, C)[rows][:, None, :]
-        if tau > 0:
+        if tau > 0 and fast_softplus:
+            # τ log1p(exp(t / τ)), safe from overflow since t / τ < 80 (checked above).
+            t *= 1 / tau
+            np.exp(t, out=t)
+            np.log1p(t, out=t)
+            t *= tau
+        elif tau > 0:
             # τ softplus(t / τ) = max(t, 0) + τ log1p(exp(-|t| / τ))
             u = np.abs(t)
             u *= -1 / tau
