@@ -236,3 +236,14 @@ def test_pair_table_equals_the_dense_pairwise_table(small, dtype):
     )
     tol = 0.0 if dtype == np.float64 else 1e-5
     np.testing.assert_allclose(table[valid], sym[valid], rtol=tol, atol=tol)
+
+
+def test_best_signal_by_nearest_uav_equals_the_dense_field(small, monkeypatch):
+    import swarmgames.scenarios.coverage as cov
+
+    pot, _ = small
+    rng = np.random.default_rng(4)
+    pos = np.c_[rng.uniform(-300, 300, (9, 2)), rng.uniform(0, 60, 9)]
+    dense = pot.best_signal(pos)
+    monkeypatch.setattr(cov, "_DENSE_METRIC_ELEMS", 0)
+    np.testing.assert_allclose(pot.best_signal(pos), dense, atol=1e-4)

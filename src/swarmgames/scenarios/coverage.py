@@ -74,6 +74,9 @@ from swarmgames.scenarios.window import RoiRaster, floor_distance_sq, windowed_u
 
 __all__ = ["CoveragePotentials"]
 
+#: Largest N x G signal field the coverage metric evaluates densely (bigger: a KD-tree query).
+_DENSE_METRIC_ELEMS = 20_000_000
+
 
 @dataclass(eq=False)
 class CoveragePotentials:
@@ -156,7 +159,16 @@ class CoveragePotentials:
         pos = np.asarray(positions, dtype=float)[..., :3].reshape(-1, 3)
         if pos.shape[0] == 0:
             raise ValueError("positions must hold at least one robot (got 0)")
-        return self.signal.field(pos, self.roi.points).max(axis=0)
+        pts = self.roi.points
+        if pos.shape[0] * pts.shape[0] <= _DENSE_METRIC_ELEMS:
+            return self.signal.field(pos, pts).max(axis=0)
+        # ψ_R falls with distance: the best signal is the nearest UAV's (a KD-tree query
+        # instead of an N x G field).
+        from scipy.spatial import cKDTree
+
+        ground = np.c_[pts, np.zeros(pts.shape[0])]
+        d, _ = cKDTree(pos).query(ground)
+        return self.signal.power_sq((d * d).astype(np.float32), dtype=np.float32)
 
     def coverage(self, positions: np.ndarray) -> float:
         """Coverage of the ROI: the expected best signal,
