@@ -340,6 +340,16 @@ class CoverageConfig(_Section):
         ),
     )
 
+    workers: int = Field(
+        1,
+        ge=1,
+        le=64,
+        description=(
+            "Threads integrating the unary under a signal floor (numpy releases the GIL; the "
+            "result does not depend on it)."
+        ),
+    )
+
     @model_validator(mode="after")
     def _covariance_positive_definite(self) -> CoverageConfig:
         (a, b), (c, d) = self.roi_cov_m2

@@ -167,3 +167,27 @@ def test_raster_holds_the_roi_weights():
     iy, ix = np.nonzero(raster.weights)
     xy = raster.origin + np.c_[ix, iy] * raster.cell
     assert np.allclose(np.sort(xy[:, 0]), np.sort(ROI.points[:, 0]))
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_state_ids_and_threads_give_the_same_unary(workers):
+    # Shared signals keyed by robot id (real or virtual) equal those keyed by value.
+    from swarmgames.game import local_games
+    from swarmgames.scenarios.scaling import scaled_config
+    from swarmgames.sim.runner import build_mission
+    from tests.game.helpers import disk_snapshot
+
+    cfg = scaled_config(80, workers=workers)
+    pot, model = build_mission(cfg)
+    pos = np.random.default_rng(1).uniform(-1200, 1200, size=(80, 2))
+    pos = np.c_[pos, np.full(80, 30.0)]
+    batch = local_games(disk_snapshot(pos[:, :2], 368.84), 2, pos, model)
+    assert batch.is_virtual.any()
+    by_id = pot.unary(batch)
+    plain = SimpleNamespace(
+        mask=batch.mask,
+        states=batch.states,
+        next_states=batch.next_states,
+        action_mask=batch.action_mask,
+    )
+    np.testing.assert_array_equal(by_id, pot.unary(plain))

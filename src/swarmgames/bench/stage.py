@@ -57,6 +57,10 @@ class StageBench:
         regret measurement is switched off (it is a metric, not part of a stage).
     seed : int
         Seed of the start positions, the network and the game.
+    workers : int
+        Threads of the windowed integral (``coverage.workers``) of the default scenario.
+    workers : int
+        Threads of the windowed integral (``coverage.workers``) of the default scenario.
 
     Attributes
     ----------
@@ -65,9 +69,16 @@ class StageBench:
     parts : StageParts
     """
 
-    def __init__(self, n_robots: int, config: ScenarioConfig | None = None, seed: int = 0) -> None:
+    def __init__(
+        self,
+        n_robots: int,
+        config: ScenarioConfig | None = None,
+        seed: int = 0,
+        *,
+        workers: int = 1,
+    ) -> None:
         t0 = time.perf_counter()
-        cfg = scaled_config(n_robots) if config is None else config
+        cfg = scaled_config(n_robots, workers=workers) if config is None else config
         self.config = cfg.model_copy(
             update={"sim": cfg.sim.model_copy(update={"global_regret": False})}
         )

@@ -26,6 +26,7 @@ they depend on the machine and its load, so they are never asserted in tests.
 
 from __future__ import annotations
 
+import os
 import resource
 import time
 import tracemalloc
@@ -197,11 +198,11 @@ def _say(progress: bool, msg: str) -> None:
         Console(stderr=True).print(f"[dim]bench[/dim] {msg}")
 
 
-def _stage_records(n: int, repeats: int, seed: int) -> tuple[list[dict], StageBench]:
+def _stage_records(n: int, repeats: int, seed: int, workers: int) -> tuple[list[dict], StageBench]:
     """Time ``repeats`` stages at N = ``n`` (the first, untimed stage measures memory)."""
     tracemalloc.start()
     try:
-        sb = StageBench(n, seed=seed)
+        sb = StageBench(n, seed=seed, workers=workers)
         sb.step()
         peak = tracemalloc.get_traced_memory()[1]
     finally:
@@ -230,6 +231,7 @@ def _stage_records(n: int, repeats: int, seed: int) -> tuple[list[dict], StageBe
         "rss_max_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "grid_cells": int(sb.potentials.roi.n_cells),
         "backend": sb.config.network.backend,
+        "workers": workers,
     }
     return [
         stage,
@@ -344,6 +346,7 @@ def run_suite(
     n_single: int | None = None,
     ns3: bool | None = None,
     seed: int = 0,
+    workers: int | None = None,
 ) -> BenchResult:
     """Run the benchmark suite (module notes) and optionally write it.
 
@@ -364,6 +367,9 @@ def run_suite(
     ns3 : bool, optional
         Compare with ns-3 (default: when installed and not ``quick``).
     seed : int
+    workers : int, optional
+        Threads of the windowed integral (``coverage.workers``); default: 2 where the machine
+        has two cores or more (the numbers of ``docs/bench.md``), else 1.
 
     Returns
     -------
@@ -374,12 +380,14 @@ def run_suite(
     if not sizes or any(int(n) < 1 for n in sizes):
         raise ValueError(f"sizes must be robot counts >= 1 (got {sizes})")
     n_single = (100 if quick else 200) if n_single is None else int(n_single)
+    if workers is None:
+        workers = 2 if (os.cpu_count() or 1) >= 2 else 1
     records: list[dict[str, Any]] = []
     ratio_bench = None
     for n in sizes:
         reps = REPEATS.get(n, 3) if repeats is None else int(repeats)
         _say(progress, f"stage, N = {n:,} ({reps} repeats)")
-        recs, sb = _stage_records(int(n), reps, seed)
+        recs, sb = _stage_records(int(n), reps, seed, int(workers))
         records.extend(recs)
         _say(progress, f"  {_fmt_s(recs[0]['median_s'])} per stage")
         if n <= 1_000:
@@ -419,6 +427,7 @@ def run_suite(
             "numpy": np.__version__,
             "wall_s": time.perf_counter() - t_start,
             "scenario": "scaled_config: 70 000 m2 per UAV, 20 m cells, floor -100 dBm",
+            "workers": int(workers),
         },
     )
     if out is not None:

@@ -102,6 +102,8 @@ class CoveragePotentials:
         paper's eq. 4 exactly). See the module notes.
     chunk_elems : int, default 4_000_000
         Upper bound on the elements of one temporary ``(games, K, A, cells)`` block.
+    workers : int, default 1
+        Threads of the windowed integral (``signal_floor_dbm`` set).
     signal_floor_dbm : float or None, default None
         Signals below this level count as the level in eq. 4, and each variable's unary is
         integrated only over the cells its actions can change, relative to what the other
@@ -131,6 +133,7 @@ class CoveragePotentials:
     separation_cost_db: float = 0.0
     chunk_elems: int = 4_000_000
     signal_floor_dbm: float | None = None
+    workers: int = 1
     last_integrate_s: float = field(default=0.0, init=False)
     _raster: RoiRaster | None = field(default=None, init=False, repr=False)
 
@@ -150,6 +153,7 @@ class CoveragePotentials:
             separation_m=coverage.separation_m,
             separation_cost_db=coverage.separation_cost_db,
             signal_floor_dbm=getattr(coverage, "signal_floor_dbm", None),
+            workers=getattr(coverage, "workers", 1),
         )
 
     # ------------------------------------------------------------------ mission metrics
@@ -189,7 +193,11 @@ class CoveragePotentials:
             self.last_integrate_s = time.perf_counter() - t0
             return out
         if self.signal_floor_dbm is not None:
-            out = self._windowed(mask, amask, states, nxt)
+            ids = None
+            members, virtual = getattr(batch, "members", None), getattr(batch, "is_virtual", None)
+            if members is not None and virtual is not None:
+                ids = 2 * np.asarray(members, dtype=np.int64) + np.asarray(virtual, dtype=bool)
+            out = self._windowed(mask, amask, states, nxt, ids)
         else:
             self._full_grid(out, mask, amask, states, nxt)
         if self.separation_m > 0 and self.separation_cost_db > 0:
@@ -201,7 +209,7 @@ class CoveragePotentials:
         self.last_integrate_s = time.perf_counter() - t0
         return out
 
-    def _windowed(self, mask, amask, states, nxt) -> np.ndarray:
+    def _windowed(self, mask, amask, states, nxt, ids=None) -> np.ndarray:
         """The unary over each variable's window of cells (``signal_floor_dbm`` set)."""
         a = self.roi.cell_m
         reach = np.sqrt(floor_distance_sq(self.signal, self.signal_floor_dbm))
@@ -219,6 +227,8 @@ class CoveragePotentials:
             nxt,
             softness_db=self.softness_db,
             chunk_elems=self.chunk_elems // 2,
+            workers=self.workers,
+            state_ids=ids,
         )
 
     def _full_grid(self, out, mask, amask, states, nxt) -> None:

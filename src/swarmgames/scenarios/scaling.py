@@ -40,6 +40,7 @@ def scaled_config(
     area_per_robot_m2: float = 70_000.0,
     signal_floor_dbm: float | None = -100.0,
     backend: str = "olsr",
+    workers: int = 1,
     base: ScenarioConfig | None = None,
 ) -> ScenarioConfig:
     """A coverage scenario for ``n_robots`` UAVs at constant density.
@@ -55,6 +56,8 @@ def scaled_config(
         whose cost grows as N²).
     backend : str, default "olsr"
         ``network.backend``.
+    workers : int, default 1
+        ``coverage.workers``, threads of the windowed integral.
     base : ScenarioConfig, optional
         Other settings (default: ``ScenarioConfig()``); its ROI, start area, swarm size,
         floor and backend are replaced.
@@ -91,6 +94,7 @@ def scaled_config(
         roi_mean_m=(0.0, 0.0),
         roi_cov_m2=((var, 0.0), (0.0, var)),
         signal_floor_dbm=signal_floor_dbm,
+        workers=workers,
     )
     data["network"]["backend"] = backend
     data["game"]["precision"] = "float32"

@@ -133,6 +133,8 @@ def windowed_unary(
     *,
     softness_db: float = 0.0,
     chunk_elems: int = 2_000_000,
+    workers: int = 1,
+    state_ids: np.ndarray | None = None,
 ) -> np.ndarray:
     """:math:`\\tilde\\phi_u` of every game, variable and action (module notes), (B, K, A).
 
@@ -153,6 +155,13 @@ def windowed_unary(
         τ of the smooth maximum (0 = hard maximum).
     chunk_elems : int
         Upper bound on the elements of one (games, K, A, cells) block.
+    state_ids : (B, K) int, optional
+        Equal ids for variables with equal states and action sets in every game (for example
+        ``2 * member + is_virtual``: a robot's reported state, or its virtual mean, is the
+        same in every game that holds it); default: compared by value.
+    workers : int
+        Threads over chunks of games (numpy releases the GIL; the result does not depend on
+        it).
 
     Returns
     -------
@@ -212,7 +221,8 @@ def windowed_unary(
     # share most of their members, whose action signals are then computed once.
     order = np.argsort(_morton(ctr[:, 0, 0], ctr[:, 0, 1]), kind="stable")
     jr = np.arange(-r, r + 1)
-    for lo in range(0, B, step):
+
+    def chunk(lo: int) -> None:
         hi = min(B, lo + step)
         sl = order[lo:hi]
         m = mask[sl]
@@ -223,8 +233,6 @@ def windowed_unary(
         # Cell centres of each variable's window, relative coordinates per axis (b, K, side).
         gx = raster.origin[0] + (cx[..., None] + jr) * a
         gy = raster.origin[1] + (cy[..., None] + jr) * a
-        widx = (cy[..., None] + offs[:, 0]) * nx + (cx[..., None] + offs[:, 1])  # (b, K, C)
-        w = raster.weights.ravel()[widx]  # (b, K, C) float32
 
         # o_k: the best other signal, as the smallest squared distance of a relevant other.
         gb, gk, gl = np.nonzero(m[:, :, None] & m[:, None, :] & ~np.eye(K, dtype=bool))
@@ -250,9 +258,16 @@ def windowed_unary(
 
         # Signal of every action of every distinct state over its window, shared by games.
         rows = np.flatnonzero(m.ravel())
-        key = np.concatenate(
-            [st.reshape(b * K, 3)[rows], nxt[sl].reshape(b * K, A * 3)[rows]], axis=1
-        )
+        vx, vy = cx.reshape(-1)[rows], cy.reshape(-1)[rows]
+        w_rows = raster.weights.ravel()[
+            (vy[:, None] + offs[:, 0]) * nx + (vx[:, None] + offs[:, 1])
+        ]
+        if state_ids is not None:
+            key = state_ids[sl].reshape(-1)[rows]
+        else:
+            key = np.concatenate(
+                [st.reshape(b * K, 3)[rows], nxt[sl].reshape(b * K, A * 3)[rows]], axis=1
+            )
         _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
         inv = inv.reshape(-1)
         src = rows[first]
@@ -264,15 +279,25 @@ def windowed_unary(
         f = psi(np.ascontiguousarray(d2[..., flat]))  # (U, A, C)
 
         # Gain over the others' best, weighted and summed over the window.
-        t = f[inv]  # (V, A, C) for the valid variables V
-        t -= o.reshape(b * K, C)[rows][:, None, :]
+        o_rows = o.reshape(b * K, C)[rows]
         if tau > 0 and fast_softplus:
-            # τ log1p(exp(t / τ)), safe from overflow since t / τ < 80 (checked above).
-            t *= 1 / tau
+            # τ log1p(exp(t / τ)), safe from overflow since t / τ < 80 (checked above); the
+            # 1/τ and τ scalings go to the smaller arrays f, o and w.
+            f *= 1 / tau
+            o_rows *= 1 / tau
+            w_rows *= tau
+            t = f[inv]  # (V, A, C) for the valid variables V
+            t -= o_rows[:, None, :]
             np.exp(t, out=t)
             np.log1p(t, out=t)
-            t *= tau
-        elif tau > 0:
+            val = np.matmul(t, w_rows[:, :, None])[..., 0]  # (V, A)
+            blk = np.zeros((b * K, A))
+            blk[rows] = val
+            out[sl] = blk.reshape(b, K, A)
+            return
+        t = f[inv]
+        t -= o_rows[:, None, :]
+        if tau > 0:
             # τ softplus(t / τ) = max(t, 0) + τ log1p(exp(-|t| / τ))
             u = np.abs(t)
             u *= -1 / tau
@@ -283,9 +308,20 @@ def windowed_unary(
             t += u
         else:
             np.maximum(t, f32(0), out=t)
-        val = np.matmul(t, w.reshape(b * K, C)[rows][:, :, None])[..., 0]  # (V, A)
+        val = np.matmul(t, w_rows[:, :, None])[..., 0]  # (V, A)
         blk = np.zeros((b * K, A))
         blk[rows] = val
         out[sl] = blk.reshape(b, K, A)
+
+    starts_all = range(0, B, step)
+    if workers > 1 and len(starts_all) > 1:
+        # numpy releases the GIL in its loops: chunks write disjoint rows of ``out``.
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(chunk, starts_all))
+    else:
+        for lo in starts_all:
+            chunk(lo)
     out[~amask] = 0.0
     return out
