@@ -303,24 +303,25 @@ def _symmetric_table(batch: LocalGameBatch, table_fn, alpha_b: float, dtype) -> 
     if w.shape != (b, k, a, k, a):
         raise ValueError(f"pair_table must have shape {(b, k, a, k, a)} (got {w.shape})")
     amask = batch.action_mask
-    valid = (
-        batch.valid_pairs()[:, :, None, :, None]
-        & amask[:, :, :, None, None]
-        & amask[:, None, None, :, :]
-    )
-    bad = None if np.isfinite(w).all() else valid & ~np.isfinite(w)
-    if bad is not None and bad.any():
+    vp = batch.valid_pairs()
+    own = w.dtype == dtype and w.flags.writeable and w.flags.c_contiguous
+    if own and np.isfinite(np.add.reduce(w, axis=None)):
+        # All finite (a non-finite entry anywhere makes the sum non-finite): scale in place
+        # by α_b times the validity of (k, a, l) and then of c, with no 5-D mask.
+        w *= np.where(vp[:, :, None, :, None] & amask[:, :, :, None, None], alpha_b, 0.0).astype(
+            dtype
+        )
+        w *= amask[:, None, None, :, :]
+        return w
+    valid = vp[:, :, None, :, None] & amask[:, :, :, None, None] & amask[:, None, None, :, :]
+    bad = valid & ~np.isfinite(w)
+    if bad.any():
         gb, gk, ga, gl, gc = (int(v) for v in np.argwhere(bad)[0])
         raise ValueError(
             f"pairwise potential is not finite ({w[gb, gk, ga, gl, gc]}) for "
             f"{_where(batch, gb, gk)}, action {ga}, with variable {gl} "
             f"(robot {int(batch.members[gb, gl])}), action {gc}"
         )
-    if w.dtype == dtype and w.flags.writeable and w.flags.c_contiguous:
-        # The table is the potentials' new array (the contract of pair_table): scale in place.
-        w *= dtype.type(alpha_b)
-        np.copyto(w, 0, where=~valid)
-        return w
     pair = np.zeros((b, k, a, k, a), dtype=dtype)
     np.multiply(w, dtype.type(alpha_b), out=pair, where=valid, casting="unsafe")
     return pair

@@ -74,6 +74,19 @@ from swarmgames.scenarios.window import RoiRaster, floor_distance_sq, windowed_u
 
 __all__ = ["CoveragePotentials"]
 
+
+def _run_chunks(fn, starts, workers: int) -> None:
+    """``fn(lo)`` for every start, on ``workers`` threads (numpy releases the GIL)."""
+    if workers > 1 and len(starts) > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(fn, starts))
+    else:
+        for lo in starts:
+            fn(lo)
+
+
 #: Largest N x G signal field the coverage metric evaluates densely (bigger: a KD-tree query).
 _DENSE_METRIC_ELEMS = 20_000_000
 
@@ -320,7 +333,7 @@ class CoveragePotentials:
         B, K, A = nxt.shape[:3]
         pts = nxt.reshape(B, K * A, 3)
         out = np.empty((B, K * A, K * A), dtype=dtype)
-        step = max(1, self.chunk_elems // max(1, (K * A) ** 2))
+        step = max(1, self.chunk_elems // 4 // max(1, (K * A) ** 2))
         sig = self.signal
         if dtype == np.float32:
             rel = pts - pts[:, :1]
@@ -330,7 +343,8 @@ class CoveragePotentials:
             offset = np.float32(
                 2.0 * (sig.t0_dbm - sig.l0_db) + 10.0 * sig.exponent * np.log10(d02)
             )
-            for lo in range(0, B, step):
+
+            def chunk(lo: int) -> None:
                 hi = min(B, lo + step)
                 d2 = out[lo:hi]
                 r = rel[lo:hi]
@@ -344,6 +358,8 @@ class CoveragePotentials:
                 np.log10(d2, out=d2)
                 d2 *= scale
                 d2 += offset
+
+            _run_chunks(chunk, range(0, B, step), self.workers)
             return out.reshape(B, K, A, K, A)
         for lo in range(0, B, step):
             hi = min(B, lo + step)
