@@ -239,21 +239,35 @@ def windowed_unary(
         dxy = st[gb, gk, :2] - st[gb, gl, :2]
         near = np.einsum("ij,ij->i", dxy, dxy) <= pair_reach**2
         gb, gk, gl = gb[near], gk[near], gl[near]
-        o2 = np.full((b * K, side * side), d2f32, dtype=f32)
+        o2 = np.full((b * K, C), d2f32, dtype=f32)
         if gb.size:
+            # Segment minimum over each variable's others. Variables are ordered by their
+            # number of others (descending) and pairs by (rank within the variable, that
+            # order): the pairs of rank j then form a contiguous block whose variables are the
+            # first n_j, so each rank is one in-place minimum over a prefix.
+            seg = gb * K + gk  # sorted (np.nonzero is row-major)
+            starts = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
+            counts = np.diff(np.r_[starts, seg.size])
+            rank = np.arange(seg.size) - np.repeat(starts, counts)
+            by_count = np.argsort(-counts, kind="stable")
+            pos = np.empty(starts.size, dtype=np.int64)
+            pos[by_count] = np.arange(starts.size)
+            order_p = np.lexsort((np.repeat(pos, counts), rank))
+            gb, gk, gl = gb[order_p], gk[order_p], gl[order_p]
             ddx = ((gx[gb, gk] - st[gb, gl, 0, None]) ** 2).astype(f32)  # (P, side)
             ddy = ((gy[gb, gk] - st[gb, gl, 1, None]) ** 2 + st[gb, gl, 2, None] ** 2).astype(f32)
-            # Segment minimum over each variable's others, one rank of the segments at a time
-            # (pairs are sorted by variable: np.nonzero is row-major).
-            seg = gb * K + gk
-            starts = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
-            rank = np.arange(seg.size) - np.repeat(starts, np.diff(np.r_[starts, seg.size]))
-            for j in range(int(rank.max()) + 1):
-                sel = np.flatnonzero(rank == j)
-                d2 = ddy[sel, :, None] + ddx[sel, None, :]
-                rows_j = seg[sel]
-                o2[rows_j] = np.minimum(o2[rows_j], d2.reshape(sel.size, -1))
-        o2 = np.ascontiguousarray(o2[:, flat]).reshape(b, K, C)
+            n_rank = np.bincount(rank)
+            best = np.full((starts.size, side * side), d2f32, dtype=f32)
+            scratch = np.empty((int(n_rank[0]), side, side), dtype=f32)
+            off = 0
+            for n_j in n_rank:
+                n_j = int(n_j)
+                blk = scratch[:n_j]
+                np.add(ddy[off : off + n_j, :, None], ddx[off : off + n_j, None, :], out=blk)
+                np.minimum(best[:n_j], blk.reshape(n_j, -1), out=best[:n_j])
+                off += n_j
+            o2[seg[starts][by_count]] = best[:, flat]
+        o2 = o2.reshape(b, K, C)
         o = psi(o2)
 
         # Signal of every action of every distinct state over its window, shared by games.
