@@ -222,9 +222,14 @@ def mean_field(
         q_old = q.copy()
         nw = q.shape[0]
         for k in range(k_vars):
-            z = logits[:, k].copy()
             if w is not None:
-                z += beta_t * _pair_field(w, q, k, sequential)
+                # β·(Σ_l Σ_c W Q) + β·U, in place on the fresh pair field (same bits as
+                # β·U + β·(...): IEEE addition is commutative).
+                z = _pair_field(w, q, k, sequential)
+                z *= beta_t
+                z += logits[:, k]
+            else:
+                z = logits[:, k].copy()
             q[:, k] = _softmax(z)
         kl = _kl(q_old, q)
         stop = running & ((kl < delta) | (it == max_iter))
