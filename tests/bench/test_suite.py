@@ -19,6 +19,7 @@ def tiny():
 def test_records_of_every_benchmark(tiny):
     names = {r["benchmark"] for r in tiny.records}
     assert {"stage", "integrate", "local_game", "olsr_advance", "batched_vs_single"} <= names
+    assert "batched_vs_single_random" in names
     assert "slope" in names
     stages = [r for r in tiny.records if r["benchmark"] == "stage"]
     assert [r["n_robots"] for r in stages] == [5, 12]

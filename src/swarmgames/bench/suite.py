@@ -14,7 +14,10 @@ cell stays):
 
 and ratios measured in the same run:
 
-* ``batched_vs_single`` — solving the stage's local games in batches against one by one;
+* ``batched_vs_single`` — solving the stage's local games (N = 1 000, or the largest size
+  up to it) in their batches against one by one;
+* ``batched_vs_single_random`` — the same on 1 000 random games of 8 variables and 9 actions
+  (the engine's own benchmark, :func:`~swarmgames.bench.game.bench_local_game`);
 * ``olsr_vs_ns3`` — the built-in OLSR against ns-3 on the same positions trace (full
   protocol, TCs included), when ns-3 is installed and not ``quick`` (importing ns-3 takes
   about 10 s);
@@ -37,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from swarmgames.bench.game import bench_local_game
 from swarmgames.bench.stage import StageBench
 
 __all__ = ["QUICK_SIZES", "SIZES", "BenchResult", "run_suite"]
@@ -114,9 +118,10 @@ class BenchResult:
                     f"integration per robot-action at N = {r['n_robots']:,}: "
                     f"{_fmt_s(r['median_s'])}"
                 )
-        for r in self._of("batched_vs_single"):
+        for r in self._of("batched_vs_single") + self._of("batched_vs_single_random"):
+            kind = "coverage" if r["benchmark"] == "batched_vs_single" else "random K = 8"
             notes.append(
-                f"batched vs one by one ({r['n_games']} games): {r['ratio']:.0f}x "
+                f"batched vs one by one ({r['n_games']} {kind} games): {r['ratio']:.0f}x "
                 f"({_fmt_s(r['batched_per_game_s'])} vs {_fmt_s(r['single_per_game_s'])} "
                 "per game)"
             )
@@ -397,6 +402,22 @@ def run_suite(
         _say(progress, f"batched vs one by one, N = {ratio_bench.n_robots:,}")
         records.append(_batched_vs_single(ratio_bench, n_single, seed))
     del ratio_bench
+    _say(progress, "batched vs one by one, random games (K = 8, A = 9)")
+    rnd = bench_local_game(
+        min(1000, 10 * n_single), 8, 9, seed, beta=50.0, n_single=n_single, dtype=np.float32
+    )
+    records.append(
+        {
+            "benchmark": "batched_vs_single_random",
+            "n_robots": rnd["n_games"],
+            "n_games": rnd["n_games"],
+            "n_single": min(n_single, rnd["n_games"]),
+            "batched_per_game_s": rnd["batched_per_game_ms"] / 1e3,
+            "single_per_game_s": rnd["single_per_game_ms"] / 1e3,
+            "median_s": rnd["batched_per_game_ms"] / 1e3,
+            "ratio": rnd["speedup"],
+        }
+    )
     st = [r for r in records if r["benchmark"] == "stage" and r["n_robots"] >= 100]
     if len(st) < 2:
         st = [r for r in records if r["benchmark"] == "stage"]
