@@ -17,7 +17,7 @@ section 2), and 175 grid cells of 20 m. The default signal floor, -100 dBm, is t
 about 205 m from a UAV at 30 m altitude, farther than any ROI point lies from its nearest UAV
 once the swarm is spread at this density (hexagonal spacing 284 m, farthest point 164 m): it
 cuts off only what the swarm leaves uncovered anyway, and bounds each UAV's integral to a disc
-of about 100 cells.
+of about 400 cells.
 
 References
 ----------

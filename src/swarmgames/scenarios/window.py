@@ -199,11 +199,10 @@ def windowed_unary(
     f32 = np.float32
     d2f32 = f32(d2f)
     tau = f32(softness_db)
-    c0 = f32(signal.t0_dbm - signal.l0_db)
+    # ψ = (T0 - L0) - 5 n log10(d² / d0²) = c0 - c1 log10(d²)
     c1 = f32(5.0 * signal.exponent)
     d02 = f32(signal.reference_distance_m**2)
-
-    c0 = c0 + c1 * np.log10(d02)
+    c0 = f32(signal.t0_dbm - signal.l0_db) + c1 * np.log10(d02)
 
     def psi(d2):
         # ψ_F from squared distances, in place: floor above d_F, clamp below d0.
