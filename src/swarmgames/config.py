@@ -330,6 +330,26 @@ class CoverageConfig(_Section):
         ),
     )
 
+    signal_floor_dbm: float | None = Field(
+        None,
+        description=(
+            "Level below which a signal no longer counts in eq. 4 (signals are clamped to it), "
+            "so a UAV's unary is integrated only over the grid cells within the radius where "
+            "its signal reaches the floor; for large swarms (None = the whole ROI, the paper), "
+            "dBm."
+        ),
+    )
+
+    workers: int = Field(
+        1,
+        ge=1,
+        le=64,
+        description=(
+            "Threads integrating the unary under a signal floor (numpy releases the GIL; the "
+            "result does not depend on it)."
+        ),
+    )
+
     @model_validator(mode="after")
     def _covariance_positive_definite(self) -> CoverageConfig:
         (a, b), (c, d) = self.roi_cov_m2

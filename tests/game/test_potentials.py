@@ -152,3 +152,55 @@ def test_wrong_shapes_are_reported():
         evaluate_payoffs(batch, TablePotentials(np.zeros((2, 2, 3))))
     with pytest.raises(ValueError, match=r"pairwise potentials must have shape"):
         evaluate_payoffs(batch, TablePotentials(pot.unary_table, np.zeros((2, 2, 2, 2))))
+
+
+class _Both:
+    """Dense pairwise and the cheaper symmetrised table of the same φ_p."""
+
+    def __init__(self, phi):
+        self.phi = phi
+
+    def unary(self, batch):
+        return np.zeros(batch.action_mask.shape)
+
+    def pairwise(self, batch):
+        nxt = batch.next_states
+        return self.phi(nxt[:, :, None, :, None, :], nxt[:, None, :, None, :, :])
+
+    def pair_table(self, batch, dtype):
+        nxt = batch.next_states
+        a = nxt[:, :, :, None, None, :]
+        b = nxt[:, None, None, :, :, :]
+        return (self.phi(a, b) + self.phi(b, a)).astype(dtype)
+
+
+class _DenseOnly(_Both):
+    pair_table = None
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_pair_table_path_equals_the_dense_table(dtype):
+    # An asymmetric φ_p checks the symmetrisation W = φ_p(k, a, l, c) + φ_p(l, c, k, a).
+    phi = lambda s, t: -np.linalg.norm(s - t, axis=-1) + 0.1 * s[..., 0]  # noqa: E731
+    pos = np.random.default_rng(1).uniform(0, 200, size=(15, 2))
+    model = DisplacementActions.headings(5.0, 4)
+    batch = local_games(disk_snapshot(pos, 70.0), 2, pos, model)
+    a = evaluate_payoffs(batch, _Both(phi), 1.0, 0.3, dtype=dtype)
+    b = evaluate_payoffs(batch, _DenseOnly(phi), 1.0, 0.3, dtype=dtype)
+    np.testing.assert_allclose(a.pair, b.pair, rtol=1e-6 if dtype == np.float32 else 1e-13)
+    assert a.pair.dtype == dtype
+
+
+def test_pair_table_non_finite_names_the_robot():
+    pos = np.random.default_rng(2).uniform(0, 100, size=(4, 2))
+    model = DisplacementActions.headings(5.0, 4)
+    batch = local_games(disk_snapshot(pos, 500.0), 1, pos, model)
+
+    class Bad(_Both):
+        def pair_table(self, batch, dtype):
+            out = super().pair_table(batch, dtype)
+            out[0, 0, 1, 1, 2] = np.nan
+            return out
+
+    with pytest.raises(ValueError, match=r"pairwise potential is not finite .* robot 0"):
+        evaluate_payoffs(batch, Bad(lambda s, t: -np.linalg.norm(s - t, axis=-1)), 1.0, 0.1)

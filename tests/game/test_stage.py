@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -100,3 +102,22 @@ def test_centralised_sampled_actions_are_valid_and_reproducible():
     assert np.all(MODEL.valid(pos)[np.arange(10), a.actions])
     # At beta = 1 the marginals are spread out: sampling differs from the argmax somewhere.
     assert np.any(a.actions != a.solution.profile[0])
+
+
+@pytest.mark.parametrize("buckets", [0, 1, 3])
+def test_size_groups_partition_the_robots_by_size(buckets):
+    from swarmgames.game.stage import size_groups
+
+    sizes = np.random.default_rng(0).integers(1, 30, size=500)
+    groups = size_groups(sizes, buckets, 9, max_elems=2_000_000)
+    assert np.array_equal(np.sort(np.concatenate(groups)), np.arange(500))
+    # Groups in increasing size, each within the pairwise-table budget.
+    assert all(sizes[a].max() <= sizes[b].min() for a, b in itertools.pairwise(groups))
+    assert all(g.size * sizes[g].max() ** 2 * 81 <= 2_000_000 or g.size == 1 for g in groups)
+
+
+def test_size_groups_keep_one_batch_for_a_small_swarm():
+    from swarmgames.game.stage import size_groups
+
+    groups = size_groups(np.array([3, 1, 2, 3]), 0, 9)
+    assert len(groups) == 1 and np.array_equal(groups[0], np.arange(4))

@@ -186,3 +186,64 @@ def test_smooth_maximum(small):
     # one robot: nothing to smooth against
     one = _batch(s[:, :1], [[True]], model)
     np.testing.assert_allclose(pot.unary(one), base.unary(one), atol=1e-6)
+
+
+def _crowding_dense(pot, mask, states, nxt):
+    # Straightforward sum over every other variable (the computation the sparse sum replaces).
+    B, K, A = nxt.shape[:3]
+    out = np.zeros((B, K, A))
+    for b in range(B):
+        for k in range(K):
+            for m in range(K):
+                if m == k or not (mask[b, k] and mask[b, m]):
+                    continue
+                d = np.linalg.norm(nxt[b, k] - states[b, m], axis=-1)
+                out[b, k] += np.maximum(0.0, 1.0 - d / pot.separation_m) ** 2
+    return pot.separation_cost_db * pot.roi.mass * out
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), spread=st.sampled_from([20.0, 60.0, 300.0]))
+def test_sparse_crowding_equals_the_dense_sum(seed, spread):
+    roi = GaussianROI((0.0, 0.0), ((150.0**2, 0.0), (0.0, 100.0**2)), 0.9, 60.0)
+    model = HeadingActions(20.0, 4)
+    pot = CoveragePotentials(roi, SignalModel(), separation_m=50.0, separation_cost_db=0.1)
+    rng = np.random.default_rng(seed)
+    states = np.c_[rng.uniform(-spread, spread, (12, 2)), np.full(12, 30.0)].reshape(3, 4, 3)
+    mask = rng.random((3, 4)) < 0.8
+    nxt = model.apply(states)
+    np.testing.assert_allclose(
+        pot._crowding(mask, states, nxt), _crowding_dense(pot, mask, states, nxt), rtol=1e-12
+    )
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_pair_table_equals_the_dense_pairwise_table(small, dtype):
+    pot, model = small
+    rng = np.random.default_rng(2)
+    states = np.c_[rng.uniform(-300, 300, (8, 2)), np.full(8, 30.0)].reshape(2, 4, 3)
+    batch = _batch(states, [[1, 1, 1, 0], [1, 1, 1, 1]], model)
+    dense = pot.pairwise(batch)  # (B, K, K, A, A)
+    sym = dense.transpose(0, 1, 3, 2, 4) + dense.transpose(0, 2, 4, 1, 3)
+    table = pot.pair_table(batch, dtype)
+    assert table.dtype == dtype and table.shape == sym.shape
+    valid = (
+        batch.mask[:, :, None, None, None]
+        & batch.mask[:, None, None, :, None]
+        & ~np.eye(4, dtype=bool)[None, :, None, :, None]
+        & batch.action_mask[:, :, :, None, None]
+        & batch.action_mask[:, None, None, :, :]
+    )
+    tol = 0.0 if dtype == np.float64 else 1e-5
+    np.testing.assert_allclose(table[valid], sym[valid], rtol=tol, atol=tol)
+
+
+def test_best_signal_by_nearest_uav_equals_the_dense_field(small, monkeypatch):
+    import swarmgames.scenarios.coverage as cov
+
+    pot, _ = small
+    rng = np.random.default_rng(4)
+    pos = np.c_[rng.uniform(-300, 300, (9, 2)), rng.uniform(0, 60, 9)]
+    dense = pot.best_signal(pos)
+    monkeypatch.setattr(cov, "_DENSE_METRIC_ELEMS", 0)
+    np.testing.assert_allclose(pot.best_signal(pos), dense, atol=1e-4)

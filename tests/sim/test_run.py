@@ -260,3 +260,24 @@ def test_acceleration_action_set_runs():
     speed = np.linalg.norm(np.diff(xy, axis=0), axis=-1)
     assert speed.max() <= 5.0 + 1e-9  # metres per 1 s period
     assert res.swarm["coverage"].iloc[-1] > res.swarm["coverage"].iloc[0]
+
+
+def test_size_batches_give_the_same_decision_as_one_batch():
+    # Buckets only regroup independent local games: same actions, payoffs and regrets.
+    from swarmgames.scenarios.scaling import scaled_config
+
+    cfg = scaled_config(60, backend="oracle")
+    one = scaled_config(60, backend="oracle", base=_cfg({"game": {"buckets": 1}}))
+    many = scaled_config(60, backend="oracle", base=_cfg({"game": {"buckets": 5}}))
+    assert cfg.game.buckets == 0
+    pot, model = build_mission(one)
+    pos = np.random.default_rng(0).uniform(-1000, 1000, size=(60, 2))
+    pos = np.c_[pos, np.full(60, 30.0)]
+    snap = DiskOracle().reset(pos)
+    rng = np.random.default_rng(0)
+    a = GameController(one, pot, model).decide(snap, pos, rng)
+    b = GameController(many, pot, model).decide(snap, pos, rng)
+    np.testing.assert_array_equal(a.actions, b.actions)
+    np.testing.assert_allclose(a.payoff, b.payoff, rtol=1e-5)
+    np.testing.assert_allclose(a.global_regret, b.global_regret, atol=1e-5)
+    np.testing.assert_array_equal(a.neighbours, b.neighbours)

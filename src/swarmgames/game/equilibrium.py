@@ -60,13 +60,20 @@ def _check_profile(payoffs: GamePayoffs, profile) -> np.ndarray:
     return x
 
 
+def _pair_at(pair: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``pair[b, k, a, l, x[b, l]]``, shape (B, K, A, K): one flat gather (the same values as
+    ``take_along_axis`` on the last axis, without its five index arrays)."""
+    b, k, a = pair.shape[:3]
+    base = np.arange(b * k * a * k, dtype=np.int64).reshape(b, k, a, k) * pair.shape[4]
+    flat = base + x[:, None, None, :]
+    return np.take(pair.reshape(-1), flat)
+
+
 def _fields(payoffs: GamePayoffs, x: np.ndarray) -> np.ndarray:
     """E[M | X_k = a] with every other variable at x: (B, K, A), up to terms free of x_k."""
     field = payoffs.unary.astype(np.float64)
     if payoffs.pair is not None:
-        b, k, a = payoffs.shape
-        idx = np.broadcast_to(x[:, None, None, :, None], (b, k, a, k, 1))
-        field = field + np.take_along_axis(payoffs.pair, idx, axis=4)[..., 0].sum(axis=3)
+        field = field + _pair_at(payoffs.pair, x).sum(axis=3)
     return field
 
 
@@ -131,9 +138,7 @@ def profile_payoff(payoffs: GamePayoffs, profile) -> np.ndarray:
     x = _check_profile(payoffs, profile)
     total = np.take_along_axis(payoffs.unary, x[:, :, None], axis=2)[:, :, 0].sum(axis=1)
     if payoffs.pair is not None:
-        b, k, a = payoffs.shape
-        idx = np.broadcast_to(x[:, None, None, :, None], (b, k, a, k, 1))
-        at_l = np.take_along_axis(payoffs.pair, idx, axis=4)[..., 0]  # (B, K, A, K)
+        at_l = _pair_at(payoffs.pair, x)  # (B, K, A, K)
         at_kl = np.take_along_axis(at_l, x[:, :, None, None], axis=2)[:, :, 0]  # (B, K, K)
         total = total + 0.5 * at_kl.sum(axis=(1, 2))
     return total

@@ -91,19 +91,14 @@ def _colsum(x: np.ndarray) -> np.ndarray:
     return out
 
 
-def _colmax(x: np.ndarray) -> np.ndarray:
-    """Maximum over the last axis, column by column."""
-    out = x[..., 0].copy()
-    for c in range(1, x.shape[-1]):
-        np.maximum(out, x[..., c], out=out)
-    return out
-
-
 def _softmax(z: np.ndarray) -> np.ndarray:
     """In-place softmax over the last axis of finite-max logits (``-inf`` entries give 0)."""
-    z -= _colmax(z)[..., None]
+    # A maximum is exact in any order: one reduction instead of a loop over the columns.
+    z -= z.max(axis=-1, keepdims=True)
     np.exp(z, out=z)
-    z /= _colsum(z)[..., None]
+    # The action axis has the same length in every game of a batch and alone (only K is
+    # padded), so numpy's own reduction keeps batched and single solves bit-identical.
+    z /= z.sum(axis=-1, keepdims=True)
     return z
 
 
@@ -227,9 +222,14 @@ def mean_field(
         q_old = q.copy()
         nw = q.shape[0]
         for k in range(k_vars):
-            z = logits[:, k].copy()
             if w is not None:
-                z += beta_t * _pair_field(w, q, k, sequential)
+                # β·(Σ_l Σ_c W Q) + β·U, in place on the fresh pair field (same bits as
+                # β·U + β·(...): IEEE addition is commutative).
+                z = _pair_field(w, q, k, sequential)
+                z *= beta_t
+                z += logits[:, k]
+            else:
+                z = logits[:, k].copy()
             q[:, k] = _softmax(z)
         kl = _kl(q_old, q)
         stop = running & ((kl < delta) | (it == max_iter))

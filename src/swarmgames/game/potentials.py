@@ -55,6 +55,12 @@ class Potentials(Protocol):
     eq. 4, does). ``pairwise(batch)`` returns ``(B, K, K, A, A)`` with
     ``[b, k, l, a, c] = φ_p(S_k, a, S_l, c)``, or ``None`` when there is no pairwise term. Values
     at padding, invalid actions and ``k == l`` are ignored (they may be anything, even NaN).
+
+    Optional cheaper form: a method ``pair_table(batch, dtype) -> (B, K, A, K, A)`` returning
+    the symmetrised table ``φ_p(k, a, l, c) + φ_p(l, c, k, a)`` directly in the solver's
+    layout (in ``dtype``), as a new array that the engine may overwrite. When present (and
+    the batch has no ``pair_mask``), :func:`evaluate_payoffs` uses it instead of
+    ``pairwise``: no ``(B, K, K, A, A)`` table, no transposed copies, half the peak memory.
     """
 
     def unary(self, batch: LocalGameBatch) -> np.ndarray: ...
@@ -241,7 +247,12 @@ def evaluate_payoffs(
     unary = unary * dtype.type(alpha_a)
 
     pair = None
-    p = potentials.pairwise(batch) if alpha_b > 0 else None
+    table_fn = getattr(potentials, "pair_table", None)
+    if alpha_b > 0 and callable(table_fn) and batch.pair_mask is None:
+        pair = _symmetric_table(batch, table_fn, alpha_b, dtype)
+        p = None
+    else:
+        p = potentials.pairwise(batch) if alpha_b > 0 else None
     if p is not None:
         p = np.asarray(p)
         if p.shape != (b, k, k, a, a):
@@ -282,3 +293,35 @@ def evaluate_payoffs(
         owner=np.asarray(batch.owner),
         members=np.asarray(batch.members),
     )
+
+
+def _symmetric_table(batch: LocalGameBatch, table_fn, alpha_b: float, dtype) -> np.ndarray:
+    """``α_b`` times the table ``table_fn(batch, dtype)`` returns, already symmetrised and in
+    the solver's layout ``(B, K, A, K, A)``; 0 outside the valid entries."""
+    b, k, a = batch.n_games, batch.n_vars, batch.n_actions
+    w = np.asarray(table_fn(batch, dtype))
+    if w.shape != (b, k, a, k, a):
+        raise ValueError(f"pair_table must have shape {(b, k, a, k, a)} (got {w.shape})")
+    amask = batch.action_mask
+    vp = batch.valid_pairs()
+    own = w.dtype == dtype and w.flags.writeable and w.flags.c_contiguous
+    if own and np.isfinite(np.add.reduce(w, axis=None)):
+        # All finite (a non-finite entry anywhere makes the sum non-finite): scale in place
+        # by α_b times the validity of (k, a, l) and then of c, with no 5-D mask.
+        w *= np.where(vp[:, :, None, :, None] & amask[:, :, :, None, None], alpha_b, 0.0).astype(
+            dtype
+        )
+        w *= amask[:, None, None, :, :]
+        return w
+    valid = vp[:, :, None, :, None] & amask[:, :, :, None, None] & amask[:, None, None, :, :]
+    bad = valid & ~np.isfinite(w)
+    if bad.any():
+        gb, gk, ga, gl, gc = (int(v) for v in np.argwhere(bad)[0])
+        raise ValueError(
+            f"pairwise potential is not finite ({w[gb, gk, ga, gl, gc]}) for "
+            f"{_where(batch, gb, gk)}, action {ga}, with variable {gl} "
+            f"(robot {int(batch.members[gb, gl])}), action {gc}"
+        )
+    pair = np.zeros((b, k, a, k, a), dtype=dtype)
+    np.multiply(w, dtype.type(alpha_b), out=pair, where=valid, casting="unsafe")
+    return pair

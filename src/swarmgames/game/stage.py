@@ -32,7 +32,7 @@ from swarmgames.game.potentials import Potentials, evaluate_payoffs
 from swarmgames.game.solvers import GameSolution, Solver, normalise_rng, sample_actions
 from swarmgames.network.topology import TopologySnapshot
 
-__all__ = ["StageSolution", "solve_stage", "stage_regret"]
+__all__ = ["StageSolution", "size_groups", "solve_stage", "stage_regret"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,6 +60,41 @@ class StageSolution:
 
     def __post_init__(self) -> None:
         _freeze_arrays(self)
+
+
+#: Largest pairwise table one batch of a stage may hold, entries (B K² A²): 200 MB in float64.
+MAX_PAIR_ELEMS = 25_000_000
+
+
+def size_groups(
+    sizes: np.ndarray, buckets: int, n_actions: int, max_elems: int = MAX_PAIR_ELEMS
+) -> list[np.ndarray]:
+    """Robots split into batches of similar neighbourhood size |N_i|.
+
+    Robots are sorted by size (stable) and split into ``buckets`` equal-count groups
+    (0 = automatic: one per 128 robots, at most 8); a group whose pairwise table
+    (``count × K_max² × A²`` entries) would exceed ``max_elems`` is split further, so the
+    memory of a stage stays bounded however large the swarm.
+
+    Returns
+    -------
+    list of ndarray of int
+        Robot indices of each group, in order of increasing size.
+    """
+    sizes = np.asarray(sizes)
+    n = sizes.size
+    if buckets == 0:
+        buckets = int(np.clip(n // 128, 1, 8))
+    if buckets == 1 and n * int(sizes.max(initial=1)) ** 2 * n_actions**2 <= max_elems:
+        return [np.arange(n)]
+    order = np.argsort(sizes, kind="stable")
+    out = []
+    for g in np.array_split(order, min(int(buckets), max(n, 1))):
+        if not g.size:
+            continue
+        per = max(1, int(max_elems // max(1, int(sizes[g[-1]]) ** 2 * n_actions**2)))
+        out.extend(np.array_split(g, -(-g.size // per)))
+    return out
 
 
 def solve_stage(
@@ -92,7 +127,9 @@ def solve_stage(
         Randomness of ``action_choice="sample"`` and of the random solver.
     buckets : int, optional
         Solve the local games in this many batches of similar size |N_i| (robots sorted by
-        |N_i|, equal counts). 0 = automatic: one batch per 128 robots, at most 8. Default:
+        |N_i|, equal counts; see :func:`size_groups`, which also splits a batch whose
+        pairwise table would exceed ``MAX_PAIR_ELEMS``). 0 = automatic: one batch per 128
+        robots, at most 8. Default:
         the solver's ``buckets`` (``GameConfig.buckets``). A batch is padded to its largest
         game and the pairwise table grows with K², so buckets save work and memory when
         neighbourhood sizes are uneven.
@@ -108,8 +145,6 @@ def solve_stage(
         buckets = getattr(solver, "buckets", 0)
     if isinstance(buckets, bool) or not isinstance(buckets, (int, np.integer)) or buckets < 0:
         raise ValueError(f"buckets must be an integer >= 0 (got {buckets})")
-    if buckets == 0:
-        buckets = int(np.clip(snapshot.n_nodes // 128, 1, 8))
     gen = normalise_rng(rng)
     t0 = time.perf_counter()
     states = np.asarray(states, dtype=float)
@@ -123,13 +158,8 @@ def solve_stage(
             actions = sample_actions(sol.marginals[0], batch.action_mask[0], actions, gen)
     else:
         messages = broadcast(snapshot, h, states)
-        n = messages.n_robots
         sizes = np.diff(messages.indptr)
-        if buckets == 1:
-            groups = [np.arange(n)]
-        else:
-            order = np.argsort(sizes, kind="stable")
-            groups = [g for g in np.array_split(order, min(int(buckets), n)) if g.size]
+        groups = size_groups(sizes, int(buckets), int(action_model.n_actions))
         batches, sols = [], []
         t_build = time.perf_counter() - t0
         for owners in groups:

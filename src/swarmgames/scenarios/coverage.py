@@ -70,8 +70,25 @@ import numpy as np
 
 from swarmgames.scenarios.roi import GaussianROI
 from swarmgames.scenarios.signal import SignalModel
+from swarmgames.scenarios.window import RoiRaster, floor_distance_sq, windowed_unary
 
 __all__ = ["CoveragePotentials"]
+
+
+def _run_chunks(fn, starts, workers: int) -> None:
+    """``fn(lo)`` for every start, on ``workers`` threads (numpy releases the GIL)."""
+    if workers > 1 and len(starts) > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(fn, starts))
+    else:
+        for lo in starts:
+            fn(lo)
+
+
+#: Largest N x G signal field the coverage metric evaluates densely (bigger: a KD-tree query).
+_DENSE_METRIC_ELEMS = 20_000_000
 
 
 @dataclass(eq=False)
@@ -98,6 +115,14 @@ class CoveragePotentials:
         paper's eq. 4 exactly). See the module notes.
     chunk_elems : int, default 4_000_000
         Upper bound on the elements of one temporary ``(games, K, A, cells)`` block.
+    workers : int, default 1
+        Threads of the windowed integral (``signal_floor_dbm`` set).
+    signal_floor_dbm : float or None, default None
+        Signals below this level count as the level in eq. 4, and each variable's unary is
+        integrated only over the cells its actions can change, relative to what the other
+        variables give there (:mod:`swarmgames.scenarios.window`): the unary then differs from
+        eq. 4 by a term free of the variable's action, which changes no marginal and no
+        deviation gain. None: the whole ROI (the paper's eq. 4 exactly).
 
     Attributes
     ----------
@@ -120,7 +145,10 @@ class CoveragePotentials:
     separation_m: float = 0.0
     separation_cost_db: float = 0.0
     chunk_elems: int = 4_000_000
+    signal_floor_dbm: float | None = None
+    workers: int = 1
     last_integrate_s: float = field(default=0.0, init=False)
+    _raster: RoiRaster | None = field(default=None, init=False, repr=False)
 
     @classmethod
     def from_config(cls, coverage) -> CoveragePotentials:
@@ -137,6 +165,8 @@ class CoveragePotentials:
             softness_db=coverage.softness_db,
             separation_m=coverage.separation_m,
             separation_cost_db=coverage.separation_cost_db,
+            signal_floor_dbm=getattr(coverage, "signal_floor_dbm", None),
+            workers=getattr(coverage, "workers", 1),
         )
 
     # ------------------------------------------------------------------ mission metrics
@@ -146,7 +176,16 @@ class CoveragePotentials:
         pos = np.asarray(positions, dtype=float)[..., :3].reshape(-1, 3)
         if pos.shape[0] == 0:
             raise ValueError("positions must hold at least one robot (got 0)")
-        return self.signal.field(pos, self.roi.points).max(axis=0)
+        pts = self.roi.points
+        if pos.shape[0] * pts.shape[0] <= _DENSE_METRIC_ELEMS:
+            return self.signal.field(pos, pts).max(axis=0)
+        # ψ_R falls with distance: the best signal is the nearest UAV's (a KD-tree query
+        # instead of an N x G field).
+        from scipy.spatial import cKDTree
+
+        ground = np.c_[pts, np.zeros(pts.shape[0])]
+        d, _ = cKDTree(pos).query(ground)
+        return self.signal.power_sq((d * d).astype(np.float32), dtype=np.float32)
 
     def coverage(self, positions: np.ndarray) -> float:
         """Coverage of the ROI: the expected best signal,
@@ -166,6 +205,48 @@ class CoveragePotentials:
         if B == 0:
             self.last_integrate_s = time.perf_counter() - t0
             return out
+        if self.signal_floor_dbm is not None:
+            ids = None
+            members, virtual = getattr(batch, "members", None), getattr(batch, "is_virtual", None)
+            if members is not None and virtual is not None:
+                ids = 2 * np.asarray(members, dtype=np.int64) + np.asarray(virtual, dtype=bool)
+            out = self._windowed(mask, amask, states, nxt, ids)
+        else:
+            self._full_grid(out, mask, amask, states, nxt)
+        if self.separation_m > 0 and self.separation_cost_db > 0:
+            out -= self._crowding(mask, states, nxt)
+        if self.move_cost_db:
+            moved = np.any(np.abs(nxt - states[:, :, None, :]) > 1e-9, axis=-1)
+            out -= np.where(moved, self.move_cost_db * self.roi.mass, 0.0)
+        out[~amask] = 0.0
+        self.last_integrate_s = time.perf_counter() - t0
+        return out
+
+    def _windowed(self, mask, amask, states, nxt, ids=None) -> np.ndarray:
+        """The unary over each variable's window of cells (``signal_floor_dbm`` set)."""
+        a = self.roi.cell_m
+        reach = np.sqrt(floor_distance_sq(self.signal, self.signal_floor_dbm))
+        disp = np.linalg.norm(nxt[..., :2] - states[:, :, None, :2], axis=-1)
+        r = int(np.ceil((reach + float(disp[amask].max(initial=0.0))) / a)) + 1
+        if self._raster is None or self._raster.pad < r:
+            self._raster = RoiRaster.from_roi(self.roi, r + 2)
+        return windowed_unary(
+            self._raster,
+            self.signal,
+            self.signal_floor_dbm,
+            mask,
+            amask,
+            states,
+            nxt,
+            softness_db=self.softness_db,
+            chunk_elems=self.chunk_elems // 2,
+            workers=self.workers,
+            state_ids=ids,
+        )
+
+    def _full_grid(self, out, mask, amask, states, nxt) -> None:
+        """Eq. 4 over the whole ROI grid, written into ``out`` (B, K, A)."""
+        B, K, A = amask.shape
         # One signal field per distinct position of the whole batch.
         cur_rows = np.where(mask[..., None], states, 0.0).reshape(-1, 3)
         nxt_rows = np.where(amask[..., None], nxt, 0.0).reshape(-1, 3)
@@ -195,29 +276,27 @@ class CoveragePotentials:
                 tau = np.float32(self.softness_db)
                 val += tau * np.log1p(np.exp(-np.abs(f - o) / tau))
             out[lo:hi] = val @ w
-        if self.separation_m > 0 and self.separation_cost_db > 0:
-            out -= self._crowding(mask, states, nxt)
-        if self.move_cost_db:
-            moved = np.any(np.abs(nxt - states[:, :, None, :]) > 1e-9, axis=-1)
-            out -= np.where(moved, self.move_cost_db * self.roi.mass, 0.0)
-        out[~amask] = 0.0
-        self.last_integrate_s = time.perf_counter() - t0
-        return out
 
     def _crowding(self, mask, states, nxt) -> np.ndarray:
         """Separation penalty of every next state against the others' current states,
-        :math:`c_{sep} \\sum_g p_g a^2 \\sum_{l \ne k} \\max(0, 1 - d_{kl} / d_{sep})^2`."""
+        :math:`c_{sep} \\sum_g p_g a^2 \\sum_{l \\ne k} \\max(0, 1 - d_{kl} / d_{sep})^2`.
+
+        Only pairs closer than :math:`d_{sep} + s` (``s`` the longest move) can be penalised,
+        so the sum runs over those pairs (a segment sum in the order of ``l``)."""
         B, K, A = nxt.shape[:3]
         out = np.zeros((B, K, A))
-        others = mask[:, None, :] & ~np.eye(K, dtype=bool)[None]  # (B, K, L)
-        step = max(1, self.chunk_elems // max(1, K * A * K))
-        for lo in range(0, B, step):
-            hi = min(B, lo + step)
-            d = np.linalg.norm(
-                nxt[lo:hi, :, :, None, :] - states[lo:hi, None, None, :, :], axis=-1
-            )  # (b, K, A, L)
-            pen = np.maximum(0.0, 1.0 - d / self.separation_m) ** 2
-            out[lo:hi] = np.where(others[lo:hi, :, None, :], pen, 0.0).sum(axis=-1)
+        s_max = float(np.linalg.norm(nxt - states[:, :, None, :], axis=-1).max(initial=0.0))
+        gb, gk, gl = np.nonzero(mask[:, :, None] & mask[:, None, :] & ~np.eye(K, dtype=bool))
+        gap = np.linalg.norm(states[gb, gk] - states[gb, gl], axis=-1)
+        near = gap < self.separation_m + s_max + 1e-9
+        gb, gk, gl = gb[near], gk[near], gl[near]
+        if gb.size == 0:
+            return out
+        d = np.linalg.norm(nxt[gb, gk] - states[gb, gl][:, None, :], axis=-1)  # (P, A)
+        pen = np.maximum(0.0, 1.0 - d / self.separation_m) ** 2
+        seg = gb * K + gk  # sorted by (b, k), then l
+        starts = np.flatnonzero(np.r_[True, seg[1:] != seg[:-1]])
+        out.reshape(B * K, A)[seg[starts]] = np.add.reduceat(pen, starts, axis=0)
         return self.separation_cost_db * self.roi.mass * out
 
     def pairwise(self, batch) -> np.ndarray:
@@ -238,3 +317,58 @@ class CoveragePotentials:
             ok = amask[lo:hi, :, None, :, None] & amask[lo:hi, None, :, None, :] & off_diag
             out[lo:hi] = np.where(ok, val, 0.0)
         return out
+
+    def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
+        """Symmetrised eq. 5 in the engine's layout, ``(B, K, A, K, A)``:
+        :math:`\\phi_p(k, a, l, c) + \\phi_p(l, c, k, a) = 2\\,\\psi_R(|S_k(a) - S_l(c)|)`
+        (the engine's cheaper form of :meth:`pairwise`; a new array); entries of padding and
+        invalid actions are finite but meaningless.
+
+        In float64 the values equal :meth:`pairwise` bit for bit; in float32 the squared
+        distances come from one batched product per game, :math:`|p|^2 + |q|^2 - 2 p \\cdot q`
+        in float64 on coordinates relative to the game's first position, and the logarithm
+        in float32."""
+        dtype = np.dtype(dtype)
+        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+        B, K, A = nxt.shape[:3]
+        pts = nxt.reshape(B, K * A, 3)
+        out = np.empty((B, K * A, K * A), dtype=dtype)
+        step = max(1, self.chunk_elems // 4 // max(1, (K * A) ** 2))
+        sig = self.signal
+        if dtype == np.float32:
+            rel = pts - pts[:, :1]
+            sq = np.einsum("bic,bic->bi", rel, rel)
+            d02 = np.float32(sig.reference_distance_m**2)
+            scale = np.float32(-10.0 * sig.exponent)  # 2 ψ = 2 (T0 - L0) - 10 n log10(d²/d0²)
+            offset = np.float32(
+                2.0 * (sig.t0_dbm - sig.l0_db) + 10.0 * sig.exponent * np.log10(d02)
+            )
+
+            def chunk(lo: int) -> None:
+                hi = min(B, lo + step)
+                d2 = out[lo:hi]
+                r = rel[lo:hi]
+                # |p - q|² = |p|² + |q|² - 2 p·q in float64 (no cancellation loss), then float32.
+                g = np.matmul(r, r.transpose(0, 2, 1))
+                g *= -2.0
+                g += sq[lo:hi, :, None]
+                g += sq[lo:hi, None, :]
+                d2[...] = g
+                np.maximum(d2, d02, out=d2)
+                np.log10(d2, out=d2)
+                d2 *= scale
+                d2 += offset
+
+            _run_chunks(chunk, range(0, B, step), self.workers)
+            return out.reshape(B, K, A, K, A)
+        for lo in range(0, B, step):
+            hi = min(B, lo + step)
+            p = pts[lo:hi]
+            diff = p[:, :, None, 0] - p[:, None, :, 0]
+            d2 = diff * diff
+            for c in (1, 2):
+                diff = p[:, :, None, c] - p[:, None, :, c]
+                d2 += diff * diff
+            val = sig.power_sq(d2.astype(dtype, copy=False), dtype=dtype.type)
+            np.add(val, val, out=out[lo:hi])
+        return out.reshape(B, K, A, K, A)

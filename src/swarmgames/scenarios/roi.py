@@ -75,7 +75,7 @@ class GaussianROI:
     cov: np.ndarray
     confidence: float
     cell_m: float
-    max_cells: int = 2_000_000
+    max_cells: int = 4_000_000
     k2: float = field(init=False)
     points: np.ndarray = field(init=False, repr=False)
     weights: np.ndarray = field(init=False, repr=False)

@@ -36,7 +36,9 @@ from swarmgames.game import (
     make_solver,
     profile_payoff,
 )
+from swarmgames.game.local import broadcast, build_local_games, gather_views
 from swarmgames.game.solvers import sample_actions
+from swarmgames.game.stage import size_groups
 from swarmgames.sim.lloyd import lloyd_actions
 
 __all__ = ["Decision", "GameController", "LloydController"]
@@ -90,6 +92,21 @@ class _Measured:
         pay = self.solver.evaluate(batch, self.potentials)
         return batch, pay, time.perf_counter() - t0
 
+    def _game_groups(self, snapshot, positions, virtual_mean: bool):
+        """The local games of the stage in batches of similar size
+        (:func:`~swarmgames.game.stage.size_groups`), each evaluated: yields
+        ``(batch, payoffs, integrate_s)``. One batch for small swarms."""
+        messages = broadcast(snapshot, self.cfg.network.hops, positions)
+        sizes = np.diff(messages.indptr)
+        groups = size_groups(sizes, int(self.solver.buckets), int(self.model.n_actions))
+        for owners in groups:
+            batch = build_local_games(
+                gather_views(messages, owners), self.model, virtual_mean=virtual_mean
+            )
+            t0 = time.perf_counter()
+            pay = self.solver.evaluate(batch, self.potentials)
+            yield batch, pay, time.perf_counter() - t0
+
     def _solve(self, pay, rng):
         try:
             return self.solver.solve_payoffs(pay, rng)
@@ -104,17 +121,20 @@ class _Measured:
     def _true_measures(self, snapshot, positions, actions, pay_true=None):
         """Payoff, local and global regret of every robot's true local game (actual states,
         no virtual means) at the robots' actual actions."""
-        if pay_true is None:
-            _, pay_true, _ = self._games(snapshot, positions, virtual_mean=False)
-        members = np.asarray(pay_true.members)
-        profile = np.where(pay_true.mask, actions[np.maximum(members, 0)], 0)
         n = positions.shape[0]
-        owners = np.asarray(pay_true.owner)
-        return (
-            _scatter(owners, profile_payoff(pay_true, profile), n),
-            _scatter(owners, local_regret(pay_true, profile), n),
-            _scatter(owners, global_regret(pay_true, actions), n),
-        )
+        out = (np.zeros(n), np.zeros(n), np.zeros(n))
+        if pay_true is None:
+            parts = (p for _, p, _ in self._game_groups(snapshot, positions, False))
+        else:
+            parts = [pay_true]
+        for pay in parts:
+            members = np.asarray(pay.members)
+            profile = np.where(pay.mask, actions[np.maximum(members, 0)], 0)
+            owners = np.asarray(pay.owner)
+            out[0][owners] = profile_payoff(pay, profile)
+            out[1][owners] = local_regret(pay, profile)
+            out[2][owners] = global_regret(pay, actions)
+        return out
 
 
 class GameController(_Measured):
@@ -148,21 +168,39 @@ class GameController(_Measured):
             per_game = 1.0 / n
         else:
             vm = bool(self.cfg.game.virtual_mean) and bool(self.solver.virtual_mean)
-            batch, pay, integ_s = self._games(snapshot, positions, vm)
-            sol = self._solve(pay, rng)
-            owners = np.asarray(batch.owner)
-            actions = _scatter(owners, np.asarray(sol.actions, dtype=np.int64), n)
-            # The robot's own view: its local game at the profile it settled on.
-            payoff = _scatter(owners, profile_payoff(pay, sol.profile), n)
-            lreg = _scatter(owners, local_regret(pay, sol.profile), n)
+            actions = np.zeros(n, dtype=np.int64)
+            payoff, lreg = np.zeros(n), np.zeros(n)
+            neigh, iters = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
+            conv = np.zeros(n, dtype=bool)
+            integ_s = solve_s = 0.0
+            n_games = 0
+            pays = []
+            for batch, pay, t_int in self._game_groups(snapshot, positions, vm):
+                sol = self._solve(pay, rng)
+                owners = np.asarray(batch.owner)
+                actions[owners] = sol.actions
+                # The robot's own view: its local game at the profile it settled on.
+                payoff[owners] = profile_payoff(pay, sol.profile)
+                lreg[owners] = local_regret(pay, sol.profile)
+                neigh[owners] = np.asarray(batch.mask).sum(axis=1) - 1
+                iters[owners] = sol.iterations
+                conv[owners] = sol.converged
+                integ_s += t_int
+                solve_s += sol.solve_time_s
+                n_games += batch.n_games
+                pays.append(pay)
             if self.cfg.sim.global_regret:
-                greg = self._true_measures(snapshot, positions, actions, None if vm else pay)[2]
+                if vm:
+                    greg = self._true_measures(snapshot, positions, actions)[2]
+                else:
+                    greg = np.zeros(n)
+                    for pay in pays:
+                        greg[np.asarray(pay.owner)] = global_regret(pay, actions)
             else:
                 greg = np.full(n, np.nan)
-            neigh = _scatter(owners, np.asarray(batch.mask).sum(axis=1) - 1, n)
-            iters = _scatter(owners, np.asarray(sol.iterations), n)
-            conv = _scatter(owners, np.asarray(sol.converged), n)
-            per_game = 1.0 / max(1, batch.n_games)
+            del pays
+            per_game = 1.0 / max(1, n_games)
+            sol = _Timing(solve_s)
         return Decision(
             actions=actions,
             payoff=payoff,
@@ -199,6 +237,11 @@ class LloydController(_Measured):
             solve_ms=np.full(n, 1e3 * solve_s / n),
             integrate_ms=np.full(n, 1e3 * integ_s / n),
         )
+
+
+@dataclass(frozen=True)
+class _Timing:
+    solve_time_s: float
 
 
 def _scatter(owners: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:

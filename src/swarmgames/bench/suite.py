@@ -1,0 +1,456 @@
+"""The benchmark suite behind ``swarmgames bench``: how a stage's cost grows with the swarm.
+
+:func:`run_suite` times, as medians over repeats, on constant-density coverage missions
+(:func:`~swarmgames.scenarios.scaling.scaled_config`: the ROI grows with N, the 20 m grid
+cell stays):
+
+* ``stage`` — a full stage (network advance + every local game, integration included +
+  motion) for N = 10, 100, 1 000 and 10 000 robots (``quick``: up to 1 000), with its peak
+  traced memory;
+* ``integrate`` — payoff integration (unary and pairwise potentials) per robot-action,
+  ``integrate_s / (N A)``;
+* ``local_game`` — one local-game solve, amortised over the stage's N games;
+* ``olsr_advance`` — one control period of the built-in OLSR provider (HELLO-only, h = 2);
+
+and ratios measured in the same run:
+
+* ``batched_vs_single`` — solving the stage's local games (N = 1 000, or the largest size
+  up to it) in their batches against one by one;
+* ``batched_vs_single_random`` — the same on 1 000 random games of 8 variables and 9 actions
+  (the engine's own benchmark, :func:`~swarmgames.bench.game.bench_local_game`);
+* ``olsr_vs_ns3`` — the built-in OLSR against ns-3 on the same positions trace (full
+  protocol, TCs included), when ns-3 is installed and not ``quick`` (importing ns-3 takes
+  about 10 s);
+* ``slope`` — the least-squares slope of log(stage time) against log(N) for N >= 100.
+
+Timings are wall-clock medians of :func:`~swarmgames.bench.timing.measure` on one process;
+they depend on the machine and its load, so they are never asserted in tests.
+"""
+
+from __future__ import annotations
+
+import os
+import resource
+import time
+import tracemalloc
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from swarmgames.bench.game import bench_local_game
+from swarmgames.bench.stage import StageBench
+
+__all__ = ["QUICK_SIZES", "SIZES", "BenchResult", "run_suite"]
+
+SIZES = (10, 100, 1_000, 10_000)
+QUICK_SIZES = (10, 100, 1_000)
+#: Timed stages per size (after one untimed stage).
+REPEATS = {10: 7, 100: 5, 1_000: 3, 10_000: 2}
+
+
+def _fmt_s(sec: float) -> str:
+    if not np.isfinite(sec):
+        return "-"
+    for unit, scale in (("s", 1.0), ("ms", 1e-3), ("µs", 1e-6)):
+        if sec >= scale or unit == "µs":
+            return f"{sec / scale:.3g} {unit}"
+    return f"{sec:.3g} s"  # pragma: no cover
+
+
+@dataclass
+class BenchResult:
+    """Records of one run of the suite.
+
+    Attributes
+    ----------
+    records : list of dict
+        One dict per measurement; every record has ``benchmark`` and ``n_robots``; timings
+        are seconds (``median_s``), memory MiB.
+    meta : dict
+        Machine and run information (quick, sizes, numpy version, wall time).
+    """
+
+    records: list[dict[str, Any]] = field(default_factory=list)
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def to_frame(self):
+        """All records as a pandas DataFrame (one row per record)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.records)
+
+    def _of(self, name: str) -> list[dict[str, Any]]:
+        return [r for r in self.records if r["benchmark"] == name]
+
+    @property
+    def slope(self) -> float:
+        """Fitted slope of log(stage time) against log(N) (NaN with fewer than two sizes)."""
+        rec = self._of("slope")
+        return float(rec[0]["value"]) if rec else float("nan")
+
+    def table(self):
+        """The results as a ``rich.table.Table``."""
+        from rich.table import Table
+
+        t = Table(title="swarmgames bench" + (" (quick)" if self.meta.get("quick") else ""))
+        for col in ("N", "stage", "advance", "integrate", "solve", "per game", "peak MiB"):
+            t.add_column(col, justify="right")
+        games = {r["n_robots"]: r for r in self._of("local_game")}
+        adv = {r["n_robots"]: r for r in self._of("olsr_advance")}
+        for r in self._of("stage"):
+            n = r["n_robots"]
+            t.add_row(
+                f"{n:,}",
+                _fmt_s(r["median_s"]),
+                _fmt_s(adv.get(n, {}).get("median_s", np.nan)),
+                _fmt_s(r["integrate_s"]),
+                _fmt_s(r["solve_s"]),
+                _fmt_s(games.get(n, {}).get("median_s", np.nan)),
+                f"{r['peak_mb']:.0f}",
+            )
+        notes = [f"slope (N >= 100): {self.slope:.2f}"]
+        for r in self._of("integrate"):
+            if r["n_robots"] == max(x["n_robots"] for x in self._of("integrate")):
+                notes.append(
+                    f"integration per robot-action at N = {r['n_robots']:,}: "
+                    f"{_fmt_s(r['median_s'])}"
+                )
+        for r in self._of("batched_vs_single") + self._of("batched_vs_single_random"):
+            kind = "coverage" if r["benchmark"] == "batched_vs_single" else "random K = 8"
+            notes.append(
+                f"batched vs one by one ({r['n_games']} {kind} games): {r['ratio']:.0f}x "
+                f"({_fmt_s(r['batched_per_game_s'])} vs {_fmt_s(r['single_per_game_s'])} "
+                "per game)"
+            )
+        for r in self._of("olsr_vs_ns3"):
+            if r.get("skipped"):
+                notes.append(f"olsr vs ns-3: skipped ({r['skipped']})")
+            else:
+                notes.append(
+                    f"olsr vs ns-3 ({r['n_robots']} nodes, {r['sim_seconds']:g} s): "
+                    f"{_fmt_s(r['olsr_s'])} vs {_fmt_s(r['ns3_s'])}, ns-3 / olsr = "
+                    f"{r['ratio']:.1f}x"
+                )
+        t.caption = "\n".join(notes)
+        return t
+
+    def plot(self):
+        """Stage cost against N on log-log axes with the fitted slope (matplotlib Figure)."""
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(6.0, 4.2))
+        st = self._of("stage")
+        n = np.array([r["n_robots"] for r in st], dtype=float)
+        if n.size:
+            y = np.array([r["median_s"] for r in st])
+            ax.loglog(n, y, "o", color="C0", label="full stage")
+            fit = self._of("slope")
+            if fit:
+                f = fit[0]
+                xs = np.geomspace(f["from_n"], f["to_n"], 20)
+                ax.loglog(
+                    xs,
+                    np.exp(f["intercept"]) * xs ** f["value"],
+                    "-",
+                    color="C0",
+                    alpha=0.6,
+                    label=f"fit, slope {f['value']:.2f}",
+                )
+            for key, color, label in (
+                ("integrate_s", "C1", "integration"),
+                ("solve_s", "C2", "local games (solve)"),
+                ("advance_s", "C3", "network advance"),
+            ):
+                ax.loglog(n, [r[key] for r in st], "--", color=color, marker=".", label=label)
+        ax.set_xlabel("robots N (constant density)")
+        ax.set_ylabel("wall time per stage (s)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        return fig
+
+    def write(self, folder) -> list[Path]:
+        """Write ``bench.json``, ``bench.csv`` and ``bench.png`` into ``folder`` (a
+        :class:`~swarmgames.runfolder.RunFolder` or a path, created if missing)."""
+        import matplotlib.pyplot as plt
+
+        from swarmgames.runfolder import RunFolder
+
+        if not isinstance(folder, RunFolder):
+            folder = RunFolder(Path(folder), force=True)
+        paths = [
+            folder.write_json("bench.json", {"meta": self.meta, "records": self.records}),
+            folder.write_csv("bench.csv", self.to_frame()),
+        ]
+        fig = self.plot()
+        try:
+            paths.append(folder.save_figure("bench.png", fig))
+        finally:
+            plt.close(fig)
+        return paths
+
+
+def _say(progress: bool, msg: str) -> None:
+    if progress:
+        from rich.console import Console
+
+        Console(stderr=True).print(f"[dim]bench[/dim] {msg}")
+
+
+def _stage_records(n: int, repeats: int, seed: int, workers: int) -> tuple[list[dict], StageBench]:
+    """Time ``repeats`` stages at N = ``n`` (the first, untimed stage measures memory)."""
+    tracemalloc.start()
+    try:
+        sb = StageBench(n, seed=seed, workers=workers)
+        sb.step()
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    sb.parts = type(sb.parts)()
+    samples = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        sb.step()
+        samples.append(time.perf_counter() - t0)
+    med = sb.parts.medians()
+    n_actions = int(sb.model.n_actions)
+    stage = {
+        "benchmark": "stage",
+        "n_robots": n,
+        "median_s": float(np.median(samples)),
+        "iqr_s": float(np.subtract(*np.percentile(samples, [75, 25]))),
+        "repeats": repeats,
+        "advance_s": med["advance_s"],
+        "integrate_s": med["integrate_s"],
+        "solve_s": med["solve_s"],
+        "motion_s": med["motion_s"],
+        "neighbours_mean": med["neighbours"],
+        "setup_s": sb.setup_s,
+        "peak_mb": peak / 2**20,
+        "rss_max_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "grid_cells": int(sb.potentials.roi.n_cells),
+        "backend": sb.config.network.backend,
+        "workers": workers,
+    }
+    return [
+        stage,
+        {
+            "benchmark": "integrate",
+            "n_robots": n,
+            "median_s": med["integrate_s"] / (n * n_actions),
+            "unit": "per robot-action",
+        },
+        {
+            "benchmark": "local_game",
+            "n_robots": n,
+            "median_s": med["solve_s"] / n,
+            "unit": "per local game, amortised over the stage",
+        },
+        {
+            "benchmark": "olsr_advance",
+            "n_robots": n,
+            "median_s": med["advance_s"],
+            "hello_only": bool(getattr(sb.provider, "hello_only", False)),
+            "unit": "per control period",
+        },
+    ], sb
+
+
+def _batched_vs_single(sb: StageBench, n_single: int, seed: int) -> dict:
+    """Solve the stage's local games in their batches and ``n_single`` of them one by one."""
+    ctrl = sb.controller
+    pays = [p for _, p, _ in ctrl._game_groups(sb.snapshot, sb.positions, True)]
+    solver = ctrl.solver
+    t0 = time.perf_counter()
+    for p in pays:
+        solver.solve_payoffs(p, sb.rng)
+    batched = time.perf_counter() - t0
+    n_games = sum(p.shape[0] for p in pays)
+    rng = np.random.default_rng(seed)
+    picks = rng.choice(n_games, size=min(n_single, n_games), replace=False)
+    offsets = np.cumsum([0] + [p.shape[0] for p in pays])
+    singles = []
+    for g in picks:
+        part = int(np.searchsorted(offsets, g, side="right") - 1)
+        one = pays[part].select(slice(g - offsets[part], g - offsets[part] + 1))
+        t0 = time.perf_counter()
+        solver.solve_payoffs(one, sb.rng)
+        singles.append(time.perf_counter() - t0)
+    per_batched = batched / n_games
+    per_single = float(np.mean(singles))
+    return {
+        "benchmark": "batched_vs_single",
+        "n_robots": sb.n_robots,
+        "n_games": int(n_games),
+        "n_single": len(singles),
+        "batched_per_game_s": per_batched,
+        "single_per_game_s": per_single,
+        "median_s": per_batched,
+        "ratio": per_single / per_batched,
+    }
+
+
+def _olsr_vs_ns3(n: int, sim_seconds: float, seed: int) -> dict:
+    """The built-in OLSR (full protocol) and ns-3 on the same drifting-swarm trace."""
+    from swarmgames.bench.network import random_swarm
+    from swarmgames.config import NetworkConfig
+    from swarmgames.network.factory import make_provider
+    from swarmgames.network.ns3_import import load_ns3, ns3_available
+
+    rec: dict[str, Any] = {"benchmark": "olsr_vs_ns3", "n_robots": n, "sim_seconds": sim_seconds}
+    if not ns3_available():
+        rec["skipped"] = "ns-3 not installed"
+        return rec
+    load_ns3()  # the ~10 s import is not part of the comparison
+    rng = np.random.default_rng(seed)
+    start = random_swarm(n, 6.0, seed=rng)
+    heading = rng.uniform(0, 2 * np.pi, n)
+    vel = 2.0 * np.c_[np.cos(heading), np.sin(heading), np.zeros(n)]
+    times, hops = {}, {}
+    for backend in ("olsr", "ns3"):
+        t0 = time.perf_counter()
+        prov = make_provider(
+            NetworkConfig(backend=backend),
+            n,
+            seed,
+            **({"hello_only": False} if backend == "olsr" else {}),
+        )
+        prov.reset(start, 0.0)
+        snap = None
+        for k in range(1, int(sim_seconds) + 1):
+            snap = prov.advance(float(k), start + vel * k)
+        times[backend] = time.perf_counter() - t0
+        hops[backend] = snap.hop_matrix()
+        close = getattr(prov, "close", None)
+        if callable(close):
+            close()
+    off = ~np.eye(n, dtype=bool)
+    rec.update(
+        olsr_s=times["olsr"],
+        ns3_s=times["ns3"],
+        median_s=times["olsr"],
+        ratio=times["ns3"] / times["olsr"],
+        route_agreement=float(np.mean(hops["olsr"][off] == hops["ns3"][off])),
+    )
+    return rec
+
+
+def run_suite(
+    quick: bool = False,
+    out=None,
+    progress: bool = True,
+    *,
+    sizes: Sequence[int] | None = None,
+    repeats: int | None = None,
+    n_single: int | None = None,
+    ns3: bool | None = None,
+    seed: int = 0,
+    workers: int | None = None,
+) -> BenchResult:
+    """Run the benchmark suite (module notes) and optionally write it.
+
+    Parameters
+    ----------
+    quick : bool
+        N = 10, 100, 1 000 and no ns-3 comparison (under two minutes on a 2-core machine).
+    out : RunFolder, str or Path, optional
+        Where to write ``bench.json``, ``bench.csv`` and ``bench.png``.
+    progress : bool
+        Print a line per benchmark on stderr.
+    sizes : sequence of int, optional
+        Swarm sizes (default :data:`SIZES`, or :data:`QUICK_SIZES` when ``quick``).
+    repeats : int, optional
+        Timed stages per size (default :data:`REPEATS`, 3 for other sizes).
+    n_single : int, optional
+        Games solved one by one for the batching ratio (default 200, quick 100).
+    ns3 : bool, optional
+        Compare with ns-3 (default: when installed and not ``quick``).
+    seed : int
+    workers : int, optional
+        Threads of the windowed integral (``coverage.workers``); default: 2 where the machine
+        has two cores or more (the numbers of ``docs/bench.md``), else 1.
+
+    Returns
+    -------
+    BenchResult
+    """
+    t_start = time.perf_counter()
+    sizes = tuple(QUICK_SIZES if quick else SIZES) if sizes is None else tuple(sizes)
+    if not sizes or any(int(n) < 1 for n in sizes):
+        raise ValueError(f"sizes must be robot counts >= 1 (got {sizes})")
+    n_single = (100 if quick else 200) if n_single is None else int(n_single)
+    if workers is None:
+        workers = 2 if (os.cpu_count() or 1) >= 2 else 1
+    records: list[dict[str, Any]] = []
+    ratio_bench = None
+    for n in sizes:
+        reps = REPEATS.get(n, 3) if repeats is None else int(repeats)
+        _say(progress, f"stage, N = {n:,} ({reps} repeats)")
+        recs, sb = _stage_records(int(n), reps, seed, int(workers))
+        records.extend(recs)
+        _say(progress, f"  {_fmt_s(recs[0]['median_s'])} per stage")
+        if n <= 1_000:
+            ratio_bench = sb
+        del sb
+    if ratio_bench is not None:
+        _say(progress, f"batched vs one by one, N = {ratio_bench.n_robots:,}")
+        records.append(_batched_vs_single(ratio_bench, n_single, seed))
+    del ratio_bench
+    _say(progress, "batched vs one by one, random games (K = 8, A = 9)")
+    rnd = bench_local_game(
+        min(1000, 10 * n_single), 8, 9, seed, beta=50.0, n_single=n_single, dtype=np.float32
+    )
+    records.append(
+        {
+            "benchmark": "batched_vs_single_random",
+            "n_robots": rnd["n_games"],
+            "n_games": rnd["n_games"],
+            "n_single": min(n_single, rnd["n_games"]),
+            "batched_per_game_s": rnd["batched_per_game_ms"] / 1e3,
+            "single_per_game_s": rnd["single_per_game_ms"] / 1e3,
+            "median_s": rnd["batched_per_game_ms"] / 1e3,
+            "ratio": rnd["speedup"],
+        }
+    )
+    st = [r for r in records if r["benchmark"] == "stage" and r["n_robots"] >= 100]
+    if len(st) < 2:
+        st = [r for r in records if r["benchmark"] == "stage"]
+    if len(st) >= 2:
+        x = np.log([r["n_robots"] for r in st])
+        y = np.log([r["median_s"] for r in st])
+        slope, intercept = np.polyfit(x, y, 1)
+        records.append(
+            {
+                "benchmark": "slope",
+                "n_robots": int(st[-1]["n_robots"]),
+                "value": float(slope),
+                "intercept": float(intercept),
+                "from_n": int(st[0]["n_robots"]),
+                "to_n": int(st[-1]["n_robots"]),
+            }
+        )
+    if ns3 is None:
+        ns3 = not quick
+    if ns3:
+        _say(progress, "olsr vs ns-3 (importing ns-3 takes ~10 s)")
+        records.append(_olsr_vs_ns3(30, 30.0, seed))
+    result = BenchResult(
+        records,
+        {
+            "quick": bool(quick),
+            "sizes": list(sizes),
+            "numpy": np.__version__,
+            "wall_s": time.perf_counter() - t_start,
+            "scenario": "scaled_config: 70 000 m2 per UAV, 20 m cells, floor -100 dBm",
+            "workers": int(workers),
+        },
+    )
+    if out is not None:
+        result.write(out)
+    return result

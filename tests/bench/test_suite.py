@@ -1,0 +1,60 @@
+"""Smoke tests of the benchmark suite on tiny sizes (records only; timings never asserted)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from swarmgames.bench import BenchResult, run_suite
+from swarmgames.bench.stage import StageBench
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    return run_suite(sizes=(5, 12), repeats=1, n_single=3, ns3=False, progress=False)
+
+
+def test_records_of_every_benchmark(tiny):
+    names = {r["benchmark"] for r in tiny.records}
+    assert {"stage", "integrate", "local_game", "olsr_advance", "batched_vs_single"} <= names
+    assert "batched_vs_single_random" in names
+    assert "slope" in names
+    stages = [r for r in tiny.records if r["benchmark"] == "stage"]
+    assert [r["n_robots"] for r in stages] == [5, 12]
+    for r in stages:
+        assert r["median_s"] > 0 and r["peak_mb"] > 0
+        assert r["integrate_s"] + r["solve_s"] + r["advance_s"] <= r["median_s"] * 1.5 + 1e-3
+    ratio = next(r for r in tiny.records if r["benchmark"] == "batched_vs_single")
+    assert ratio["n_single"] == 3 and np.isfinite(ratio["ratio"])
+    assert np.isfinite(tiny.slope)
+
+
+def test_table_frame_plot_and_files(tiny, tmp_path):
+    frame = tiny.to_frame()
+    assert len(frame) == len(tiny.records) and "benchmark" in frame
+    table = tiny.table()
+    assert table.row_count == 2
+    fig = tiny.plot()
+    assert fig.axes[0].get_xscale() == "log" and fig.axes[0].get_yscale() == "log"
+    assert any("slope" in t.get_text() for t in fig.axes[0].get_legend().get_texts())
+    paths = tiny.write(tmp_path / "bench")
+    assert sorted(p.name for p in paths) == ["bench.csv", "bench.json", "bench.png"]
+    data = json.loads((tmp_path / "bench" / "bench.json").read_text())
+    assert data["records"][0]["benchmark"] == "stage"
+
+
+def test_stage_bench_moves_the_swarm():
+    sb = StageBench(6, seed=1)
+    before = sb.positions.copy()
+    for _ in range(3):
+        sb.step()
+    assert sb.positions.shape == before.shape and len(sb.parts.advance_s) == 3
+    assert sb.time == pytest.approx(sb.config.sim.warmup_s + 3.0)
+
+
+def test_empty_result_and_bad_sizes():
+    assert np.isnan(BenchResult().slope)
+    with pytest.raises(ValueError, match="sizes must be robot counts >= 1"):
+        run_suite(sizes=(0,), progress=False)
