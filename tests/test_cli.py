@@ -199,3 +199,18 @@ def test_reproduce_fig1(runner, tmp_path):
     )
     assert res.exit_code == 0, res.output
     assert (tmp_path / "f1" / "fig1.csv").is_file() and (tmp_path / "f1" / "fig1.png").is_file()
+
+
+def test_bench_writes_results(runner, tmp_path):
+    out = tmp_path / "bench"
+    res = runner.invoke(cli, ["bench", "--quick", "--sizes", "5,10", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    for name in ("bench.json", "bench.csv", "bench.png"):
+        assert (out / name).is_file()
+
+
+@pytest.mark.parametrize("sizes", ["0,10", "ten", ","])
+def test_bench_rejects_bad_sizes(runner, tmp_path, sizes):
+    res = runner.invoke(cli, ["bench", "--sizes", sizes, "--out", str(tmp_path / "b")])
+    assert res.exit_code == 2 and "--sizes" in res.output
+    assert not (tmp_path / "b").exists()

@@ -405,13 +405,53 @@ def compare(
 
 
 @cli.command()
-@click.option("--quick", is_flag=True, help="A short run (under two minutes).")
+@click.option("--quick", is_flag=True, help="N = 10, 100, 1 000 and no ns-3 (under two minutes).")
+@click.option(
+    "--sizes",
+    default=None,
+    metavar="N,N,...",
+    help="Swarm sizes of the full-stage benchmark (default 10,100,1000,10000).",
+)
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Threads of the payoff integration (default: 2 on machines with two cores or more).",
+)
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @out_option
 @force_option
 @_guarded
-def bench(quick: bool, out: Path | None, force: bool) -> None:
-    """Time payoff integration, local-game solving, full stages and OLSR against swarm size."""
-    _not_available("`swarmgames bench`")
+def bench(
+    quick: bool,
+    sizes: str | None,
+    workers: int | None,
+    seed: int,
+    out: Path | None,
+    force: bool,
+) -> None:
+    """Time payoff integration, local-game solving, full stages at constant density and the
+    OLSR advance against swarm size, with batched / one-by-one and built-in OLSR / ns-3 ratios.
+
+    Writes bench.json, bench.csv and bench.png (cost against N on log-log axes with the fitted
+    slope) and prints a table.
+    """
+    from swarmgames.bench import run_suite
+
+    parsed = None
+    if sizes is not None:
+        try:
+            parsed = [int(x) for x in sizes.split(",") if x.strip()]
+        except ValueError:
+            parsed = []
+        if not parsed or min(parsed) < 1:
+            raise click.BadParameter(
+                f"must be comma-separated robot counts >= 1 (got {sizes!r})", param_hint="--sizes"
+            )
+    folder = _open_run_folder(out, "bench", force)
+    result = run_suite(quick, folder, progress=True, sizes=parsed, seed=seed, workers=workers)
+    _console().print(result.table())
+    click.echo(f"Wrote {folder.path}/")
 
 
 # ----------------------------------------------------------------------------- config
