@@ -58,3 +58,16 @@ def test_empty_result_and_bad_sizes():
     assert np.isnan(BenchResult().slope)
     with pytest.raises(ValueError, match="sizes must be robot counts >= 1"):
         run_suite(sizes=(0,), progress=False)
+
+
+@pytest.mark.ns3
+def test_olsr_vs_ns3_record():
+    from swarmgames.bench.suite import _olsr_vs_ns3
+    from swarmgames.network.ns3_import import ns3_available
+
+    if not ns3_available():
+        pytest.skip("ns-3 is not installed (pip install 'swarmgames[ns3]')")
+    rec = _olsr_vs_ns3(8, 6.0, seed=0)
+    assert rec["benchmark"] == "olsr_vs_ns3" and "skipped" not in rec
+    assert rec["olsr_s"] > 0 and rec["ns3_s"] > 0
+    assert 0.0 <= rec["route_agreement"] <= 1.0

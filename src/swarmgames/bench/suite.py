@@ -315,12 +315,8 @@ def _olsr_vs_ns3(n: int, sim_seconds: float, seed: int) -> dict:
     times, hops = {}, {}
     for backend in ("olsr", "ns3"):
         t0 = time.perf_counter()
-        prov = make_provider(
-            NetworkConfig(backend=backend),
-            n,
-            seed,
-            **({"hello_only": False} if backend == "olsr" else {}),
-        )
+        # Full tables: OLSR with TCs, as ns-3 always runs it.
+        prov = make_provider(NetworkConfig(backend=backend), n, seed, full_tables=True)
         prov.reset(start, 0.0)
         snap = None
         for k in range(1, int(sim_seconds) + 1):
