@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse.csgraph as csgraph
 
-from swarmgames.game import LocalGameBatch, TablePotentials
+from swarmgames.game import DisplacementActions, FunctionPotentials, LocalGameBatch, TablePotentials
 from swarmgames.network import TopologySnapshot
 
 
@@ -67,3 +67,17 @@ def disk_snapshot(positions: np.ndarray, radius: float, time: float = 0.0) -> To
     adj = (d <= radius) & ~np.eye(len(pos), dtype=bool)
     hops = csgraph.shortest_path(adj.astype(float), unweighted=True)
     return TopologySnapshot.from_hop_matrix(time, hops)
+
+
+#: A small 2-D stage shared by the solver and stage tests: move towards (100, 100), stay apart.
+MODEL = DisplacementActions.headings(5.0, 8, lower=[0.0, 0.0], upper=[200.0, 200.0])
+POT = FunctionPotentials(
+    lambda s: -np.linalg.norm(s - 100.0, axis=-1) / 50.0,
+    lambda s, t: -np.exp(-np.linalg.norm(s - t, axis=-1) / 20.0),
+)
+
+
+def swarm(n: int = 12, seed: int = 0):
+    """``n`` robots uniform in a 200 m square and their 70 m disk-graph snapshot."""
+    pos = np.random.default_rng(seed).uniform(0, 200, size=(n, 2))
+    return pos, disk_snapshot(pos, 70.0)

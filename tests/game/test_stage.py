@@ -9,8 +9,6 @@ import pytest
 
 from swarmgames.config import GameConfig
 from swarmgames.game import (
-    DisplacementActions,
-    FunctionPotentials,
     MeanFieldSolver,
     evaluate_payoffs,
     global_regret,
@@ -20,18 +18,8 @@ from swarmgames.game import (
     solve_stage,
     stage_regret,
 )
-from tests.game.helpers import disk_snapshot
-
-MODEL = DisplacementActions.headings(5.0, 8, lower=[0.0, 0.0], upper=[200.0, 200.0])
-POT = FunctionPotentials(
-    lambda s: -np.linalg.norm(s - 100.0, axis=-1) / 50.0,
-    lambda s, t: -np.exp(-np.linalg.norm(s - t, axis=-1) / 20.0),
-)
-
-
-def _swarm(n=12, seed=0):
-    pos = np.random.default_rng(seed).uniform(0, 200, size=(n, 2))
-    return pos, disk_snapshot(pos, 70.0)
+from tests.game.helpers import MODEL, POT, disk_snapshot
+from tests.game.helpers import swarm as _swarm
 
 
 def test_virtual_mean_switch_changes_the_games():
