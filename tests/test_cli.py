@@ -214,3 +214,13 @@ def test_bench_rejects_bad_sizes(runner, tmp_path, sizes):
     res = runner.invoke(cli, ["bench", "--sizes", sizes, "--out", str(tmp_path / "b")])
     assert res.exit_code == 2 and "--sizes" in res.output
     assert not (tmp_path / "b").exists()
+
+
+def test_run_that_fails_before_writing_leaves_no_folder(runner, tmp_path):
+    # 7 robots in one clique give 9**7 joint profiles: the exact solver refuses at stage 1.
+    out = tmp_path / "exact"
+    res = runner.invoke(
+        cli, ["run", "--out", str(out), "--no-progress", "--set", "game.solver=exact"]
+    )
+    assert res.exit_code == 2 and "exact" in res.output
+    assert not out.exists()

@@ -100,6 +100,13 @@ def _console():
     return Console()
 
 
+def _remove_if_empty(path: Path) -> None:
+    import contextlib
+
+    with contextlib.suppress(OSError):
+        path.rmdir()  # only succeeds on an empty folder
+
+
 def _open_run_folder(out: Path | None, default_name: str, force: bool):
     from swarmgames.runfolder import RunFolder
 
@@ -173,7 +180,11 @@ def run(
     config = resolve_scenario(scenario, extra)
     check_config(config)  # before the folder is created
     folder = _open_run_folder(out, config.name, force)
-    result = run_mission(config, out=folder, progress=not no_progress and _interactive())
+    try:
+        result = run_mission(config, out=folder, progress=not no_progress and _interactive())
+    except BaseException:
+        _remove_if_empty(folder.path)  # a run that failed before writing leaves no trace
+        raise
     _console().print(result.summary_table())
     click.echo(f"Wrote {len(folder.written)} files to {folder.path}/")
     if result.interrupted:
