@@ -147,12 +147,27 @@ class CoveragePotentials:
     chunk_elems: int = 4_000_000
     signal_floor_dbm: float | None = None
     workers: int = 1
+    crowding: str = "unary"
+    pair_weight: float = 0.001
     last_integrate_s: float = field(default=0.0, init=False)
     _raster: RoiRaster | None = field(default=None, init=False, repr=False)
 
+    def __post_init__(self) -> None:
+        if self.crowding not in ("pairwise", "unary"):
+            raise ValueError(f"crowding must be 'pairwise' or 'unary' (got {self.crowding!r})")
+        if not (np.isfinite(self.pair_weight) and self.pair_weight >= 0):
+            raise ValueError(f"pair_weight must be >= 0 and finite (got {self.pair_weight})")
+        if self.crowding == "pairwise" and self._crowding_on and self.pair_weight == 0:
+            raise ValueError(
+                "the pairwise crowding penalty needs a pairwise weight > 0 (got pair_weight = 0, "
+                "i.e. game.alpha_b = 0): set separation_mode = 'unary' or separation_cost_db = 0"
+            )
+
     @classmethod
-    def from_config(cls, coverage) -> CoveragePotentials:
-        """Build from a :class:`~swarmgames.config.CoverageConfig`."""
+    def from_config(cls, coverage, pair_weight: float = 0.001) -> CoveragePotentials:
+        """Build from a :class:`~swarmgames.config.CoverageConfig`; ``pair_weight`` is the
+        game's :math:`\\alpha_b` (``game.alpha_b``), which the pairwise crowding penalty
+        divides out so that its weight stays ``separation_cost_db``."""
         return cls(
             GaussianROI.from_config(coverage),
             SignalModel(
@@ -167,6 +182,8 @@ class CoveragePotentials:
             separation_cost_db=coverage.separation_cost_db,
             signal_floor_dbm=getattr(coverage, "signal_floor_dbm", None),
             workers=getattr(coverage, "workers", 1),
+            crowding=getattr(coverage, "separation_mode", "unary"),
+            pair_weight=pair_weight,
         )
 
     # ------------------------------------------------------------------ mission metrics
@@ -213,7 +230,7 @@ class CoveragePotentials:
             out = self._windowed(mask, amask, states, nxt, ids)
         else:
             self._full_grid(out, mask, amask, states, nxt)
-        if self.separation_m > 0 and self.separation_cost_db > 0:
+        if self._crowding_on and self.crowding == "unary":
             out -= self._crowding(mask, states, nxt)
         if self.move_cost_db:
             moved = np.any(np.abs(nxt - states[:, :, None, :]) > 1e-9, axis=-1)
@@ -299,6 +316,21 @@ class CoveragePotentials:
         out.reshape(B * K, A)[seg[starts]] = np.add.reduceat(pen, starts, axis=0)
         return self.separation_cost_db * self.roi.mass * out
 
+    @property
+    def _crowding_on(self) -> bool:
+        return self.separation_m > 0 and self.separation_cost_db > 0
+
+    def _pair_crowding(self, nxt: np.ndarray, dtype) -> np.ndarray:
+        """Symmetrised pairwise crowding penalty divided by the pairwise weight,
+        ``(B, K*A, K*A)``: :math:`-2 c_{sep} \\sum_g p_g a^2
+        \\max(0, 1 - |S_k(a) - S_l(c)| / d_{sep})^2 / \\alpha_b`."""
+        B = nxt.shape[0]
+        pts = nxt.reshape(B, -1, 3)
+        d = np.linalg.norm(pts[:, :, None, :] - pts[:, None, :, :], axis=-1)
+        pen = np.maximum(0.0, 1.0 - d / self.separation_m) ** 2
+        scale = 2.0 * self.separation_cost_db * self.roi.mass / self.pair_weight
+        return (-scale * pen).astype(dtype, copy=False)
+
     def pairwise(self, batch) -> np.ndarray:
         """:math:`\\phi_p(k, x_k, l, x_l)` of eq. 5, shape (B, K, K, A, A); 0 on the diagonal
         ``k == l`` and for padded variables or invalid actions."""
@@ -314,6 +346,9 @@ class CoveragePotentials:
             a = nxt[lo:hi, :, None, :, None, :]  # (b, K, 1, A, 1, 3)
             b = nxt[lo:hi, None, :, None, :, :]  # (b, 1, K, 1, A, 3)
             val = self.signal.link(a, b)
+            if self._crowding_on and self.crowding == "pairwise":
+                pen = np.maximum(0.0, 1.0 - np.linalg.norm(a - b, axis=-1) / self.separation_m)
+                val = val - (self.separation_cost_db * self.roi.mass / self.pair_weight) * pen**2
             ok = amask[lo:hi, :, None, :, None] & amask[lo:hi, None, :, None, :] & off_diag
             out[lo:hi] = np.where(ok, val, 0.0)
         return out
@@ -360,6 +395,8 @@ class CoveragePotentials:
                 d2 += offset
 
             _run_chunks(chunk, range(0, B, step), self.workers)
+            if self._crowding_on and self.crowding == "pairwise":
+                out += self._pair_crowding(nxt, dtype)
             return out.reshape(B, K, A, K, A)
         for lo in range(0, B, step):
             hi = min(B, lo + step)
@@ -371,4 +408,6 @@ class CoveragePotentials:
                 d2 += diff * diff
             val = sig.power_sq(d2.astype(dtype, copy=False), dtype=dtype.type)
             np.add(val, val, out=out[lo:hi])
+        if self._crowding_on and self.crowding == "pairwise":
+            out += self._pair_crowding(nxt, dtype)
         return out.reshape(B, K, A, K, A)
