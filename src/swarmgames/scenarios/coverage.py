@@ -45,7 +45,15 @@ Crowding penalty (``separation_m``, ``separation_cost_db``): robots that take of
 small area see almost the same neighbourhood, so eq. 4 gives them almost the same best move and
 they fly in lockstep as a clump. A penalty that grows as a robot's next position comes within
 :math:`d_{sep}` of another robot's current position depends on where each robot sits in the
-clump, so neighbours choose different headings; it doubles as collision avoidance.
+clump, so neighbours choose different headings; it doubles as collision avoidance. With
+``crowding = "pairwise"`` (the default of the scenario configuration) the penalty is a
+pairwise potential of eq. 1 on *both* robots' next positions,
+:math:`\\phi_{sep}(k, x_k, l, x_l) = -c_{sep} \\sum_g p(r_g) a^2
+\\max(0, 1 - |S_k(x_k) - S_l(x_l)| / d_{sep})^2`, so the local game charges a joint move
+where it ends. Scored in the unary against the others' *current* positions (``"unary"``), a
+robot of a near co-located clump believes that any move escapes the penalty, every member
+believes the same, the clump moves in lockstep, stays crowded, and the coverage term pulls it
+back: a period-2 oscillation that never settles (20 UAVs, docs/coverage.md).
 
 Move cost: in eq. 4 every variable
 is scored with the others held at their current states, but all robots move at once. Near the
@@ -109,6 +117,13 @@ class CoveragePotentials:
         Crowding penalty: :math:`c_{sep} \\sum_g p(r_g) a^2 \\sum_{l \ne k}
         \\max(0, 1 - d(S_k(x_k), S_l) / d_{sep})^2` is subtracted from the unary (0 = off).
         See the module notes.
+    crowding : {"unary", "pairwise"}, default "unary"
+        Where the crowding penalty enters: the unary (each next position against the others'
+        current positions) or the pairwise term (both next positions; :meth:`pairwise` and
+        :meth:`pair_table` carry :math:`\\phi_{sep} / \\alpha_b`, so that the engine's
+        weight :math:`\\alpha_b` gives it back its weight ``separation_cost_db``).
+    pair_weight : float, default 0.001
+        :math:`\\alpha_b` of eq. 1 (``game.alpha_b``); must be > 0 for the pairwise crowding.
     move_cost_db : float, default 0.0
         Cost of a move, in dB of expected ROI signal: every action that changes a variable's
         state has :math:`c_{move} \\cdot \\sum_g p(r_g) a^2` subtracted from its unary (0 = the
@@ -320,20 +335,36 @@ class CoveragePotentials:
     def _crowding_on(self) -> bool:
         return self.separation_m > 0 and self.separation_cost_db > 0
 
-    def _pair_crowding(self, nxt: np.ndarray, dtype) -> np.ndarray:
-        """Symmetrised pairwise crowding penalty divided by the pairwise weight,
-        ``(B, K*A, K*A)``: :math:`-2 c_{sep} \\sum_g p_g a^2
-        \\max(0, 1 - |S_k(a) - S_l(c)| / d_{sep})^2 / \\alpha_b`."""
-        B = nxt.shape[0]
-        pts = nxt.reshape(B, -1, 3)
-        d = np.linalg.norm(pts[:, :, None, :] - pts[:, None, :, :], axis=-1)
-        pen = np.maximum(0.0, 1.0 - d / self.separation_m) ** 2
+    def _add_pair_crowding(self, out: np.ndarray, batch) -> None:
+        """Add the symmetrised pairwise crowding penalty, divided by the pairwise weight, to
+        ``out`` (B, K*A, K*A) in place:
+        :math:`-2 c_{sep} \\sum_g p_g a^2 \\max(0, 1 - |S_k(a) - S_l(c)| / d_{sep})^2 /
+        \\alpha_b`.
+
+        Only variable pairs closer than :math:`d_{sep} + 2 s` (``s`` the longest move) can be
+        penalised, so the (A, A) blocks of those pairs only are computed."""
+        mask = np.asarray(batch.mask, dtype=bool)
+        states = np.asarray(batch.states, dtype=float)[..., :3]
+        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+        B, K, A = nxt.shape[:3]
+        amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+        disp = np.linalg.norm(nxt - states[:, :, None, :], axis=-1)
+        s_max = float(disp[amask].max(initial=0.0))
+        gb, gk, gl = np.nonzero(mask[:, :, None] & mask[:, None, :] & ~np.eye(K, dtype=bool))
+        gap = np.linalg.norm(states[gb, gk] - states[gb, gl], axis=-1)
+        near = gap < self.separation_m + 2.0 * s_max + 1e-9
+        gb, gk, gl = gb[near], gk[near], gl[near]
+        if gb.size == 0:
+            return
+        d = np.linalg.norm(nxt[gb, gk][:, :, None, :] - nxt[gb, gl][:, None, :, :], axis=-1)
+        pen = np.maximum(0.0, 1.0 - d / self.separation_m) ** 2  # (P, A, A)
         scale = 2.0 * self.separation_cost_db * self.roi.mass / self.pair_weight
-        return (-scale * pen).astype(dtype, copy=False)
+        out.reshape(B, K, A, K, A)[gb, gk, :, gl, :] -= (scale * pen).astype(out.dtype)
 
     def pairwise(self, batch) -> np.ndarray:
         """:math:`\\phi_p(k, x_k, l, x_l)` of eq. 5, shape (B, K, K, A, A); 0 on the diagonal
-        ``k == l`` and for padded variables or invalid actions."""
+        ``k == l`` and for padded variables or invalid actions. With the pairwise crowding
+        penalty on, :math:`\\phi_{sep} / \\alpha_b` is added (module notes)."""
         mask = np.asarray(batch.mask, dtype=bool)
         amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
         nxt = np.where(amask[..., None], np.asarray(batch.next_states, dtype=float)[..., :3], 0.0)
@@ -356,8 +387,9 @@ class CoveragePotentials:
     def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
         """Symmetrised eq. 5 in the engine's layout, ``(B, K, A, K, A)``:
         :math:`\\phi_p(k, a, l, c) + \\phi_p(l, c, k, a) = 2\\,\\psi_R(|S_k(a) - S_l(c)|)`
-        (the engine's cheaper form of :meth:`pairwise`; a new array); entries of padding and
-        invalid actions are finite but meaningless.
+        (the engine's cheaper form of :meth:`pairwise`; a new array), plus
+        :math:`2 \\phi_{sep} / \\alpha_b` with the pairwise crowding penalty on; entries of
+        padding and invalid actions are finite but meaningless.
 
         In float64 the values equal :meth:`pairwise` bit for bit; in float32 the squared
         distances come from one batched product per game, :math:`|p|^2 + |q|^2 - 2 p \\cdot q`
@@ -396,7 +428,7 @@ class CoveragePotentials:
 
             _run_chunks(chunk, range(0, B, step), self.workers)
             if self._crowding_on and self.crowding == "pairwise":
-                out += self._pair_crowding(nxt, dtype)
+                self._add_pair_crowding(out, batch)
             return out.reshape(B, K, A, K, A)
         for lo in range(0, B, step):
             hi = min(B, lo + step)
@@ -409,5 +441,5 @@ class CoveragePotentials:
             val = sig.power_sq(d2.astype(dtype, copy=False), dtype=dtype.type)
             np.add(val, val, out=out[lo:hi])
         if self._crowding_on and self.crowding == "pairwise":
-            out += self._pair_crowding(nxt, dtype)
+            self._add_pair_crowding(out, batch)
         return out.reshape(B, K, A, K, A)
