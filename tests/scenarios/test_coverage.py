@@ -154,7 +154,9 @@ def test_coverage_metric(small):
 def test_move_cost_and_crowding_penalty(small):
     base, model = small
     roi, sig = base.roi, base.signal
-    pot = CoveragePotentials(roi, sig, move_cost_db=0.01, separation_m=50.0, separation_cost_db=0.1)
+    pot = CoveragePotentials(
+        roi, sig, move_cost_db=0.01, separation_m=50.0, separation_cost_db=0.1, crowding="unary"
+    )
     s = np.array([[[0.0, 0.0, 30.0], [20.0, 0.0, 30.0]]])
     batch = _batch(s, [[True, True]], model)
     diff = base.unary(batch) - pot.unary(batch)
@@ -207,7 +209,9 @@ def _crowding_dense(pot, mask, states, nxt):
 def test_sparse_crowding_equals_the_dense_sum(seed, spread):
     roi = GaussianROI((0.0, 0.0), ((150.0**2, 0.0), (0.0, 100.0**2)), 0.9, 60.0)
     model = HeadingActions(20.0, 4)
-    pot = CoveragePotentials(roi, SignalModel(), separation_m=50.0, separation_cost_db=0.1)
+    pot = CoveragePotentials(
+        roi, SignalModel(), separation_m=50.0, separation_cost_db=0.1, crowding="unary"
+    )
     rng = np.random.default_rng(seed)
     states = np.c_[rng.uniform(-spread, spread, (12, 2)), np.full(12, 30.0)].reshape(3, 4, 3)
     mask = rng.random((3, 4)) < 0.8

@@ -46,7 +46,7 @@ small area see almost the same neighbourhood, so eq. 4 gives them almost the sam
 they fly in lockstep as a clump. A penalty that grows as a robot's next position comes within
 :math:`d_{sep}` of another robot's current position depends on where each robot sits in the
 clump, so neighbours choose different headings; it doubles as collision avoidance. With
-``crowding = "pairwise"`` (the default of the scenario configuration) the penalty is a
+``crowding = "pairwise"`` (the default) the penalty is a
 pairwise potential of eq. 1 on *both* robots' next positions,
 :math:`\\phi_{sep}(k, x_k, l, x_l) = -c_{sep} \\sum_g p(r_g) a^2
 \\max(0, 1 - |S_k(x_k) - S_l(x_l)| / d_{sep})^2`, so the local game charges a joint move
@@ -117,7 +117,7 @@ class CoveragePotentials:
         Crowding penalty: :math:`c_{sep} \\sum_g p(r_g) a^2 \\sum_{l \ne k}
         \\max(0, 1 - d(S_k(x_k), S_l) / d_{sep})^2` is subtracted from the unary (0 = off).
         See the module notes.
-    crowding : {"unary", "pairwise"}, default "unary"
+    crowding : {"pairwise", "unary"}, default "pairwise"
         Where the crowding penalty enters: the unary (each next position against the others'
         current positions) or the pairwise term (both next positions; :meth:`pairwise` and
         :meth:`pair_table` carry :math:`\\phi_{sep} / \\alpha_b`, so that the engine's
@@ -162,7 +162,7 @@ class CoveragePotentials:
     chunk_elems: int = 4_000_000
     signal_floor_dbm: float | None = None
     workers: int = 1
-    crowding: str = "unary"
+    crowding: str = "pairwise"
     pair_weight: float = 0.001
     last_integrate_s: float = field(default=0.0, init=False)
     _raster: RoiRaster | None = field(default=None, init=False, repr=False)
@@ -197,7 +197,7 @@ class CoveragePotentials:
             separation_cost_db=coverage.separation_cost_db,
             signal_floor_dbm=getattr(coverage, "signal_floor_dbm", None),
             workers=getattr(coverage, "workers", 1),
-            crowding=getattr(coverage, "separation_mode", "unary"),
+            crowding=getattr(coverage, "separation_mode", "pairwise"),
             pair_weight=pair_weight,
         )
 
