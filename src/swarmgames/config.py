@@ -321,6 +321,15 @@ class CoverageConfig(_Section):
             "(not in the paper; 0 = off), dB."
         ),
     )
+    separation_mode: Literal["pairwise", "unary"] = Field(
+        "pairwise",
+        description=(
+            "How the crowding penalty sees the other robots: 'pairwise' = a pairwise potential "
+            "on both robots' next positions (the local game predicts both moves), 'unary' = "
+            "the robot's next position against the others' current positions (each assumes "
+            "the others stay; co-located robots can then oscillate in lockstep); no unit."
+        ),
+    )
     move_cost_db: float = Field(
         0.01,
         ge=0,

@@ -154,7 +154,9 @@ def test_coverage_metric(small):
 def test_move_cost_and_crowding_penalty(small):
     base, model = small
     roi, sig = base.roi, base.signal
-    pot = CoveragePotentials(roi, sig, move_cost_db=0.01, separation_m=50.0, separation_cost_db=0.1)
+    pot = CoveragePotentials(
+        roi, sig, move_cost_db=0.01, separation_m=50.0, separation_cost_db=0.1, crowding="unary"
+    )
     s = np.array([[[0.0, 0.0, 30.0], [20.0, 0.0, 30.0]]])
     batch = _batch(s, [[True, True]], model)
     diff = base.unary(batch) - pot.unary(batch)
@@ -207,7 +209,9 @@ def _crowding_dense(pot, mask, states, nxt):
 def test_sparse_crowding_equals_the_dense_sum(seed, spread):
     roi = GaussianROI((0.0, 0.0), ((150.0**2, 0.0), (0.0, 100.0**2)), 0.9, 60.0)
     model = HeadingActions(20.0, 4)
-    pot = CoveragePotentials(roi, SignalModel(), separation_m=50.0, separation_cost_db=0.1)
+    pot = CoveragePotentials(
+        roi, SignalModel(), separation_m=50.0, separation_cost_db=0.1, crowding="unary"
+    )
     rng = np.random.default_rng(seed)
     states = np.c_[rng.uniform(-spread, spread, (12, 2)), np.full(12, 30.0)].reshape(3, 4, 3)
     mask = rng.random((3, 4)) < 0.8
@@ -247,3 +251,96 @@ def test_best_signal_by_nearest_uav_equals_the_dense_field(small, monkeypatch):
     dense = pot.best_signal(pos)
     monkeypatch.setattr(cov, "_DENSE_METRIC_ELEMS", 0)
     np.testing.assert_allclose(pot.best_signal(pos), dense, atol=1e-4)
+
+
+def _two_robot_game(model, gap_m=1.0):
+    from swarmgames.game import local_games
+    from swarmgames.network import TopologySnapshot
+
+    states = np.array([[-100.0, 0.0, 30.0], [-100.0, gap_m, 30.0]])
+    snap = TopologySnapshot.from_hop_matrix(0.0, [[0, 1], [1, 0]])
+    return states, local_games(snap, 2, states, model)
+
+
+def _crowding_in_payoff(base, batch, mode, profile):
+    """The crowding part of M_i (eq. 1) at a joint profile of both robots."""
+    from swarmgames.game import evaluate_payoffs, profile_payoff
+
+    pot = CoveragePotentials(
+        base.roi, base.signal, separation_m=50.0, separation_cost_db=0.1, crowding=mode
+    )
+    prof = np.tile(profile, (batch.n_games, 1))
+    with_c = profile_payoff(evaluate_payoffs(batch, pot, 1.0, 0.001), prof)
+    without = profile_payoff(evaluate_payoffs(batch, base, 1.0, 0.001), prof)
+    return with_c - without
+
+
+@pytest.mark.parametrize("heading", [1, 2, 3, 4])
+def test_pairwise_crowding_charges_a_joint_move_at_the_next_positions(small, heading):
+    # Two robots 1 m apart moving together stay 1 m apart: the pairwise penalty (both
+    # robots' next positions) charges the joint move exactly as staying, -c_sep * mass *
+    # sum over ordered pairs of (1 - d / d_sep)^2 (eq. 1 sums k != l over ordered pairs).
+    base, model = small
+    _, batch = _two_robot_game(model)
+    together = _crowding_in_payoff(base, batch, "pairwise", [heading, heading])
+    stay = _crowding_in_payoff(base, batch, "pairwise", [0, 0])
+    expected = -2 * 0.1 * base.roi.mass * (1.0 - 1.0 / 50.0) ** 2
+    np.testing.assert_allclose(stay, expected, rtol=1e-9)
+    np.testing.assert_allclose(together, expected, rtol=1e-9)
+    # Moving apart does lower it.
+    apart = _crowding_in_payoff(base, batch, "pairwise", [heading, 0])
+    assert np.all(apart > stay + 0.01 * base.roi.mass)
+
+
+@pytest.mark.parametrize("heading", [1, 2, 3, 4])
+def test_unary_crowding_believes_a_joint_move_escapes(small, heading):
+    # The mechanism of the lockstep oscillation: scored against the other's current
+    # position, each robot of a co-located pair believes that any move escapes the crowding,
+    # also when both make the same move and stay 1 m apart.
+    base, model = small
+    _, batch = _two_robot_game(model)
+    together = _crowding_in_payoff(base, batch, "unary", [heading, heading])
+    stay = _crowding_in_payoff(base, batch, "unary", [0, 0])
+    assert np.all(together > stay + 0.01 * base.roi.mass)
+
+
+def test_pairwise_crowding_table_matches_pairwise(small):
+    base, model = small
+    pot = CoveragePotentials(
+        base.roi, base.signal, separation_m=50.0, separation_cost_db=0.1, crowding="pairwise"
+    )
+    s = np.array([[[0.0, 0.0, 30.0], [20.0, 0.0, 30.0], [35.0, 12.0, 30.0]]])
+    batch = _batch(s, [[True, True, True]], model)
+    p = pot.pairwise(batch)  # (B, K, K, A, A)
+    sym = p.transpose(0, 1, 3, 2, 4) + p.transpose(0, 2, 4, 1, 3)
+    table = pot.pair_table(batch, np.float64)
+    off = ~np.eye(3, dtype=bool)[None, :, None, :, None]
+    np.testing.assert_allclose(np.where(off, table, 0), np.where(off, sym, 0), rtol=1e-12)
+    table32 = pot.pair_table(batch, np.float32)
+    np.testing.assert_allclose(np.where(off, table32, 0), np.where(off, sym, 0), rtol=1e-5)
+    # The crowding part is divided by the pairwise weight, so alpha_b * table carries it at
+    # separation_cost_db: robots 0 and 1 staying 20 m apart.
+    crowd = (
+        table[0, 0, 0, 1, 0] - pot.__class__(base.roi, base.signal).pair_table(batch)[0, 0, 0, 1, 0]
+    )
+    expected = -2 * 0.1 * base.roi.mass * (1 - 20.0 / 50.0) ** 2
+    assert 0.001 * crowd == pytest.approx(expected, rel=1e-9)
+    # and no crowding in the unary
+    np.testing.assert_allclose(pot.unary(batch), base.unary(batch), atol=1e-9)
+
+
+def test_pairwise_crowding_rejects_a_zero_pair_weight(small):
+    base, _ = small
+    with pytest.raises(ValueError, match="pairwise weight > 0"):
+        CoveragePotentials(
+            base.roi,
+            base.signal,
+            separation_m=50.0,
+            separation_cost_db=0.1,
+            pair_weight=0.0,
+            crowding="pairwise",
+        )
+    with pytest.raises(ValueError, match="crowding must be"):
+        CoveragePotentials(base.roi, base.signal, crowding="both")
+    # no crowding: a zero pair weight is fine (the paper with alpha_b = 0)
+    CoveragePotentials(base.roi, base.signal, pair_weight=0.0, crowding="pairwise")

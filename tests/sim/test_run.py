@@ -158,6 +158,11 @@ def test_two_robot_payoff_against_hand_computation():
         ({"coverage": {"confidence": 1.5}}, r"coverage.confidence: must be < 1"),
         ({"sim": {"controller": "voronoi"}}, r"sim.controller"),
         ({"coverage": {"move_cost_db": -1.0}}, r"coverage.move_cost_db: must be >= 0"),
+        ({"coverage": {"separation_mode": "both"}}, r"coverage.separation_mode"),
+        (
+            {"game": {"alpha_b": 0.0}},
+            r"coverage: the pairwise crowding penalty needs a pairwise weight > 0",
+        ),
         (
             {"coverage": {"roi_cov_m2": [[1.0, 2.0], [2.0, 1.0]]}},
             "roi_cov_m2 must be symmetric positive definite",
@@ -281,3 +286,18 @@ def test_size_batches_give_the_same_decision_as_one_batch():
     np.testing.assert_allclose(a.payoff, b.payoff, rtol=1e-5)
     np.testing.assert_allclose(a.global_regret, b.global_regret, atol=1e-5)
     np.testing.assert_array_equal(a.neighbours, b.neighbours)
+
+
+def test_twenty_robots_reach_consensus():
+    # Issue acceptance at 20 UAVs (default scenario, OLSR): with the crowding penalty scored
+    # against the others' current positions, co-located robots flew back and forth in
+    # lockstep for ever (12 robots still moving at 90 s); as a pairwise potential on both
+    # robots' next positions the swarm settles (at 61 s here).
+    cfg = parse_config(
+        {"swarm": {"n_robots": 20}, "sim": {"animation": False, "global_regret": False}}
+    )
+    s = run(cfg, progress=False).summary
+    assert s["consensus"] and s["moving_robots_last_stage"] == 0
+    assert s["settled_at_s"] is not None
+    assert s["median_local_regret"] == 0.0
+    assert s["coverage_end_dbm"] > -92.0  # -92.28 dBm with the unary penalty, not settled

@@ -45,7 +45,15 @@ Crowding penalty (``separation_m``, ``separation_cost_db``): robots that take of
 small area see almost the same neighbourhood, so eq. 4 gives them almost the same best move and
 they fly in lockstep as a clump. A penalty that grows as a robot's next position comes within
 :math:`d_{sep}` of another robot's current position depends on where each robot sits in the
-clump, so neighbours choose different headings; it doubles as collision avoidance.
+clump, so neighbours choose different headings; it doubles as collision avoidance. With
+``crowding = "pairwise"`` (the default) the penalty is a
+pairwise potential of eq. 1 on *both* robots' next positions,
+:math:`\\phi_{sep}(k, x_k, l, x_l) = -c_{sep} \\sum_g p(r_g) a^2
+\\max(0, 1 - |S_k(x_k) - S_l(x_l)| / d_{sep})^2`, so the local game charges a joint move
+where it ends. Scored in the unary against the others' *current* positions (``"unary"``), a
+robot of a near co-located clump believes that any move escapes the penalty, every member
+believes the same, the clump moves in lockstep, stays crowded, and the coverage term pulls it
+back: a period-2 oscillation that never settles (20 UAVs, docs/coverage.md).
 
 Move cost: in eq. 4 every variable
 is scored with the others held at their current states, but all robots move at once. Near the
@@ -109,6 +117,13 @@ class CoveragePotentials:
         Crowding penalty: :math:`c_{sep} \\sum_g p(r_g) a^2 \\sum_{l \ne k}
         \\max(0, 1 - d(S_k(x_k), S_l) / d_{sep})^2` is subtracted from the unary (0 = off).
         See the module notes.
+    crowding : {"pairwise", "unary"}, default "pairwise"
+        Where the crowding penalty enters: the unary (each next position against the others'
+        current positions) or the pairwise term (both next positions; :meth:`pairwise` and
+        :meth:`pair_table` carry :math:`\\phi_{sep} / \\alpha_b`, so that the engine's
+        weight :math:`\\alpha_b` gives it back its weight ``separation_cost_db``).
+    pair_weight : float, default 0.001
+        :math:`\\alpha_b` of eq. 1 (``game.alpha_b``); must be > 0 for the pairwise crowding.
     move_cost_db : float, default 0.0
         Cost of a move, in dB of expected ROI signal: every action that changes a variable's
         state has :math:`c_{move} \\cdot \\sum_g p(r_g) a^2` subtracted from its unary (0 = the
@@ -147,12 +162,27 @@ class CoveragePotentials:
     chunk_elems: int = 4_000_000
     signal_floor_dbm: float | None = None
     workers: int = 1
+    crowding: str = "pairwise"
+    pair_weight: float = 0.001
     last_integrate_s: float = field(default=0.0, init=False)
     _raster: RoiRaster | None = field(default=None, init=False, repr=False)
 
+    def __post_init__(self) -> None:
+        if self.crowding not in ("pairwise", "unary"):
+            raise ValueError(f"crowding must be 'pairwise' or 'unary' (got {self.crowding!r})")
+        if not (np.isfinite(self.pair_weight) and self.pair_weight >= 0):
+            raise ValueError(f"pair_weight must be >= 0 and finite (got {self.pair_weight})")
+        if self.crowding == "pairwise" and self._crowding_on and self.pair_weight == 0:
+            raise ValueError(
+                "the pairwise crowding penalty needs a pairwise weight > 0 (got pair_weight = 0, "
+                "i.e. game.alpha_b = 0): set separation_mode = 'unary' or separation_cost_db = 0"
+            )
+
     @classmethod
-    def from_config(cls, coverage) -> CoveragePotentials:
-        """Build from a :class:`~swarmgames.config.CoverageConfig`."""
+    def from_config(cls, coverage, pair_weight: float = 0.001) -> CoveragePotentials:
+        """Build from a :class:`~swarmgames.config.CoverageConfig`; ``pair_weight`` is the
+        game's :math:`\\alpha_b` (``game.alpha_b``), which the pairwise crowding penalty
+        divides out so that its weight stays ``separation_cost_db``."""
         return cls(
             GaussianROI.from_config(coverage),
             SignalModel(
@@ -167,6 +197,8 @@ class CoveragePotentials:
             separation_cost_db=coverage.separation_cost_db,
             signal_floor_dbm=getattr(coverage, "signal_floor_dbm", None),
             workers=getattr(coverage, "workers", 1),
+            crowding=getattr(coverage, "separation_mode", "pairwise"),
+            pair_weight=pair_weight,
         )
 
     # ------------------------------------------------------------------ mission metrics
@@ -213,7 +245,7 @@ class CoveragePotentials:
             out = self._windowed(mask, amask, states, nxt, ids)
         else:
             self._full_grid(out, mask, amask, states, nxt)
-        if self.separation_m > 0 and self.separation_cost_db > 0:
+        if self._crowding_on and self.crowding == "unary":
             out -= self._crowding(mask, states, nxt)
         if self.move_cost_db:
             moved = np.any(np.abs(nxt - states[:, :, None, :]) > 1e-9, axis=-1)
@@ -299,9 +331,40 @@ class CoveragePotentials:
         out.reshape(B * K, A)[seg[starts]] = np.add.reduceat(pen, starts, axis=0)
         return self.separation_cost_db * self.roi.mass * out
 
+    @property
+    def _crowding_on(self) -> bool:
+        return self.separation_m > 0 and self.separation_cost_db > 0
+
+    def _add_pair_crowding(self, out: np.ndarray, batch) -> None:
+        """Add the symmetrised pairwise crowding penalty, divided by the pairwise weight, to
+        ``out`` (B, K*A, K*A) in place:
+        :math:`-2 c_{sep} \\sum_g p_g a^2 \\max(0, 1 - |S_k(a) - S_l(c)| / d_{sep})^2 /
+        \\alpha_b`.
+
+        Only variable pairs closer than :math:`d_{sep} + 2 s` (``s`` the longest move) can be
+        penalised, so the (A, A) blocks of those pairs only are computed."""
+        mask = np.asarray(batch.mask, dtype=bool)
+        states = np.asarray(batch.states, dtype=float)[..., :3]
+        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+        B, K, A = nxt.shape[:3]
+        amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+        disp = np.linalg.norm(nxt - states[:, :, None, :], axis=-1)
+        s_max = float(disp[amask].max(initial=0.0))
+        gb, gk, gl = np.nonzero(mask[:, :, None] & mask[:, None, :] & ~np.eye(K, dtype=bool))
+        gap = np.linalg.norm(states[gb, gk] - states[gb, gl], axis=-1)
+        near = gap < self.separation_m + 2.0 * s_max + 1e-9
+        gb, gk, gl = gb[near], gk[near], gl[near]
+        if gb.size == 0:
+            return
+        d = np.linalg.norm(nxt[gb, gk][:, :, None, :] - nxt[gb, gl][:, None, :, :], axis=-1)
+        pen = np.maximum(0.0, 1.0 - d / self.separation_m) ** 2  # (P, A, A)
+        scale = 2.0 * self.separation_cost_db * self.roi.mass / self.pair_weight
+        out.reshape(B, K, A, K, A)[gb, gk, :, gl, :] -= (scale * pen).astype(out.dtype)
+
     def pairwise(self, batch) -> np.ndarray:
         """:math:`\\phi_p(k, x_k, l, x_l)` of eq. 5, shape (B, K, K, A, A); 0 on the diagonal
-        ``k == l`` and for padded variables or invalid actions."""
+        ``k == l`` and for padded variables or invalid actions. With the pairwise crowding
+        penalty on, :math:`\\phi_{sep} / \\alpha_b` is added (module notes)."""
         mask = np.asarray(batch.mask, dtype=bool)
         amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
         nxt = np.where(amask[..., None], np.asarray(batch.next_states, dtype=float)[..., :3], 0.0)
@@ -314,6 +377,9 @@ class CoveragePotentials:
             a = nxt[lo:hi, :, None, :, None, :]  # (b, K, 1, A, 1, 3)
             b = nxt[lo:hi, None, :, None, :, :]  # (b, 1, K, 1, A, 3)
             val = self.signal.link(a, b)
+            if self._crowding_on and self.crowding == "pairwise":
+                pen = np.maximum(0.0, 1.0 - np.linalg.norm(a - b, axis=-1) / self.separation_m)
+                val = val - (self.separation_cost_db * self.roi.mass / self.pair_weight) * pen**2
             ok = amask[lo:hi, :, None, :, None] & amask[lo:hi, None, :, None, :] & off_diag
             out[lo:hi] = np.where(ok, val, 0.0)
         return out
@@ -321,8 +387,9 @@ class CoveragePotentials:
     def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
         """Symmetrised eq. 5 in the engine's layout, ``(B, K, A, K, A)``:
         :math:`\\phi_p(k, a, l, c) + \\phi_p(l, c, k, a) = 2\\,\\psi_R(|S_k(a) - S_l(c)|)`
-        (the engine's cheaper form of :meth:`pairwise`; a new array); entries of padding and
-        invalid actions are finite but meaningless.
+        (the engine's cheaper form of :meth:`pairwise`; a new array), plus
+        :math:`2 \\phi_{sep} / \\alpha_b` with the pairwise crowding penalty on; entries of
+        padding and invalid actions are finite but meaningless.
 
         In float64 the values equal :meth:`pairwise` bit for bit; in float32 the squared
         distances come from one batched product per game, :math:`|p|^2 + |q|^2 - 2 p \\cdot q`
@@ -360,6 +427,8 @@ class CoveragePotentials:
                 d2 += offset
 
             _run_chunks(chunk, range(0, B, step), self.workers)
+            if self._crowding_on and self.crowding == "pairwise":
+                self._add_pair_crowding(out, batch)
             return out.reshape(B, K, A, K, A)
         for lo in range(0, B, step):
             hi = min(B, lo + step)
@@ -371,4 +440,6 @@ class CoveragePotentials:
                 d2 += diff * diff
             val = sig.power_sq(d2.astype(dtype, copy=False), dtype=dtype.type)
             np.add(val, val, out=out[lo:hi])
+        if self._crowding_on and self.crowding == "pairwise":
+            self._add_pair_crowding(out, batch)
         return out.reshape(B, K, A, K, A)

@@ -62,7 +62,7 @@ def check_config(config: ScenarioConfig) -> None:
 def build_mission(config: ScenarioConfig) -> tuple[Any, Any]:
     """The coverage potentials and the UAV action model of ``config``."""
     try:
-        potentials = CoveragePotentials.from_config(config.coverage)
+        potentials = CoveragePotentials.from_config(config.coverage, config.game.alpha_b)
     except ValueError as exc:
         raise ConfigError(f"coverage: {exc}") from None
     sw = config.swarm
