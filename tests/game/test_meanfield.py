@@ -214,3 +214,13 @@ def test_invalid_parameters_are_rejected(kwargs, match):
     args = {"beta": 1.0, "delta": 1e-6, "max_iter": 10, **kwargs}
     with pytest.raises(ValueError, match=match):
         mean_field(payoffs, **args)
+
+
+@pytest.mark.parametrize("summation", SUMMATIONS)
+def test_empty_batch_gives_empty_results(summation):
+    # A stage with no games of some size: nothing to solve, empty arrays of the right shapes.
+    batch, pot = random_games(1, 3, 4, 3)
+    payoffs = evaluate_payoffs(batch, pot, 1.0, 0.5).select(slice(0, 0))
+    res = mean_field(payoffs, 3.0, 1e-6, 200, summation=summation)
+    assert res.marginals.shape == (0, 4, 3)
+    assert res.iterations.shape == res.converged.shape == res.kl.shape == (0,)

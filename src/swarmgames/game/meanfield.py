@@ -317,7 +317,7 @@ def mean_field(
     owned = False  # whether logits and w are private copies that may be compacted in place
     fast = not sequential and w is not None
     sweep = _blas_sweep(w, q, logits, beta_t) if fast else None
-    for it in range(1, int(max_iter) + 1):
+    for it in range(1, int(max_iter) + 1 if b else 0):
         q_old = q.copy()
         if fast:
             sweep()
