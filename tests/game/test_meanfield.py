@@ -114,6 +114,23 @@ def test_batched_equals_one_by_one_same_width(summation, seed, b, k, a):
         assert one.kl[0] == res.kl[g] or (np.isnan(one.kl[0]) and np.isnan(res.kl[g]))
 
 
+@pytest.mark.parametrize("summation", SUMMATIONS)
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_games_stopping_at_many_sweeps_keep_their_results_through_compaction(summation, dtype):
+    # The working set drops stopped games as they stop (a first copy, then rows moved within
+    # it, out of order): every game must still get the bits it gets alone, and its own count.
+    batch, pot = random_games(7, 40, 6, 4)
+    payoffs = evaluate_payoffs(batch, pot, 1.0, 0.5, dtype=dtype)
+    res = mean_field(payoffs, 4.0, 1e-7, 60, summation=summation)
+    assert len(np.unique(res.iterations)) >= 5  # many stopping sweeps: compaction happens
+    for g in range(40):
+        one = mean_field(payoffs.select(slice(g, g + 1)), 4.0, 1e-7, 60, summation=summation)
+        np.testing.assert_array_equal(one.marginals[0], res.marginals[g])
+        assert one.iterations[0] == res.iterations[g]
+        assert one.converged[0] == res.converged[g]
+        assert one.kl[0] == res.kl[g]
+
+
 @settings(max_examples=30, deadline=None)
 @given(
     seed=st.integers(0, 2**32 - 1), b=st.integers(1, 10), k=st.integers(1, 7), a=st.integers(1, 5)
@@ -197,3 +214,13 @@ def test_invalid_parameters_are_rejected(kwargs, match):
     args = {"beta": 1.0, "delta": 1e-6, "max_iter": 10, **kwargs}
     with pytest.raises(ValueError, match=match):
         mean_field(payoffs, **args)
+
+
+@pytest.mark.parametrize("summation", SUMMATIONS)
+def test_empty_batch_gives_empty_results(summation):
+    # A stage with no games of some size: nothing to solve, empty arrays of the right shapes.
+    batch, pot = random_games(1, 3, 4, 3)
+    payoffs = evaluate_payoffs(batch, pot, 1.0, 0.5).select(slice(0, 0))
+    res = mean_field(payoffs, 3.0, 1e-6, 200, summation=summation)
+    assert res.marginals.shape == (0, 4, 3)
+    assert res.iterations.shape == res.converged.shape == res.kl.shape == (0,)
