@@ -144,3 +144,19 @@ def test_colocated_start():
     assert np.ptp(xy[-1], axis=0).max() > 0
     for res in (together, apart):
         assert np.isfinite(res.metrics[["payoff", "local_regret", "global_regret"]]).all().all()
+
+
+def test_hop_stats_reach_beyond_hello_only_tables():
+    # 7 robots in a line 300 m apart (range 368.84 m, REFERENCE.md section 2): HELLO-only OLSR
+    # tables hold at most 2 hops, but the swarm is 6 hops across; the paper's Fig. 1 averages
+    # over every reachable pair: 2 * (6*1 + 5*2 + 4*3 + 3*4 + 2*5 + 1*6) / 42 = 8/3.
+    from swarmgames.network.olsr.provider import OlsrProvider
+
+    pos = np.column_stack([np.arange(7) * 300.0, np.zeros(7), np.zeros(7)])
+    net = OlsrProvider(7, hello_only=True, seed=0)
+    net.reset(pos)
+    snap = net.advance(30.0, pos)
+    assert snap.hops.max() == 2
+    mean_h, max_h, comps, _ = swarm_graph_stats(snap)
+    assert (max_h, comps) == (6, 1)
+    assert mean_h == pytest.approx(8 / 3)

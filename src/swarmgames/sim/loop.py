@@ -44,19 +44,40 @@ def start_positions(n: int, center, radius: float, altitude: float, rng) -> np.n
     return out
 
 
+#: Above this many robots the hop statistics come from the routing-table entries alone
+#: (an all-pairs BFS would need N^2 memory).
+HOP_STATS_MAX_NODES = 2000
+
+
 def swarm_graph_stats(snapshot: TopologySnapshot) -> tuple[float, int, int, np.ndarray]:
-    """Mean and max hop count over the routing-table entries, number of connected components
-    of the 1-hop graph, and its undirected edges ``(E, 2)`` (i < j)."""
+    """Hop statistics and connectivity of the swarm as its routing tables see it.
+
+    Returns the mean and max hop count over the ordered pairs that can reach each other, the
+    number of connected components of the 1-hop links (symmetric neighbours in the tables),
+    and those links as undirected edges ``(E, 2)`` with ``i < j``.
+
+    Notes
+    -----
+    Up to :data:`HOP_STATS_MAX_NODES` robots the hops are breadth-first distances over the
+    tables' 1-hop links (what settled OLSR routes, paper Fig. 1's "unreachable pairs left
+    out"), so they do not depend on how far the tables themselves reach: OLSR in HELLO-only
+    mode (h <= 2) holds no route longer than 2 hops, yet the swarm may be 6 hops across.
+    Larger swarms use the table entries, which may stop at h hops.
+    """
     n = snapshot.n_nodes
-    hops = snapshot.hops
-    mean_h = float(hops.mean()) if hops.size else 0.0
-    max_h = int(hops.max()) if hops.size else 0
     one = snapshot.hops == 1
     a, b = snapshot.owner[one], snapshot.dest[one]
     lo, hi = np.minimum(a, b), np.maximum(a, b)
     edges = np.unique(np.column_stack([lo, hi]), axis=0) if lo.size else np.zeros((0, 2), int)
     graph = csr_array((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
     n_comp = int(csgraph.connected_components(graph, directed=False)[0])
+    if n <= HOP_STATS_MAX_NODES and len(edges):
+        dist = csgraph.shortest_path(graph, directed=False, unweighted=True)
+        hops = dist[np.isfinite(dist) & (dist > 0)]
+    else:
+        hops = snapshot.hops
+    mean_h = float(hops.mean()) if hops.size else 0.0
+    max_h = int(hops.max()) if hops.size else 0
     return mean_h, max_h, n_comp, edges.astype(np.int32)
 
 
