@@ -264,14 +264,7 @@ def evaluate_payoffs(
             & amask[:, :, None, :, None]
             & amask[:, None, :, None, :]
         )
-        bad = valid & ~np.isfinite(p)
-        if bad.any():
-            gb, gk, gl, ga, gc = (int(v) for v in np.argwhere(bad)[0])
-            raise ValueError(
-                f"pairwise potential is not finite ({p[gb, gk, gl, ga, gc]}) for "
-                f"{_where(batch, gb, gk)}, action {ga}, with variable {gl} "
-                f"(robot {int(batch.members[gb, gl])}), action {gc}"
-            )
+        _check_pair_finite(batch, p, valid, layout="bklac")
         # W[b, k, a, l, c] = φ_p(k, a, l, c) + φ_p(l, c, k, a), in the solver's layout.
         # Entries outside ``valid`` never enter (they may be NaN), even for an asymmetric
         # pair_mask where only one of (k, l), (l, k) counts.
@@ -295,6 +288,23 @@ def evaluate_payoffs(
     )
 
 
+def _check_pair_finite(
+    batch: LocalGameBatch, table: np.ndarray, valid: np.ndarray, layout: str
+) -> None:
+    """Raise naming the first valid non-finite pairwise entry; ``layout`` spells the axes of
+    ``table`` with b (game), k and l (variables), a and c (their actions)."""
+    bad = valid & ~np.isfinite(table)
+    if bad.any():
+        idx = tuple(int(v) for v in np.argwhere(bad)[0])
+        at = dict(zip(layout, idx, strict=True))
+        gb, gk, gl = at["b"], at["k"], at["l"]
+        raise ValueError(
+            f"pairwise potential is not finite ({table[idx]}) for "
+            f"{_where(batch, gb, gk)}, action {at['a']}, with variable {gl} "
+            f"(robot {int(batch.members[gb, gl])}), action {at['c']}"
+        )
+
+
 def _symmetric_table(batch: LocalGameBatch, table_fn, alpha_b: float, dtype) -> np.ndarray:
     """``α_b`` times the table ``table_fn(batch, dtype)`` returns, already symmetrised and in
     the solver's layout ``(B, K, A, K, A)``; 0 outside the valid entries."""
@@ -314,14 +324,7 @@ def _symmetric_table(batch: LocalGameBatch, table_fn, alpha_b: float, dtype) -> 
         w *= amask[:, None, None, :, :]
         return w
     valid = vp[:, :, None, :, None] & amask[:, :, :, None, None] & amask[:, None, None, :, :]
-    bad = valid & ~np.isfinite(w)
-    if bad.any():
-        gb, gk, ga, gl, gc = (int(v) for v in np.argwhere(bad)[0])
-        raise ValueError(
-            f"pairwise potential is not finite ({w[gb, gk, ga, gl, gc]}) for "
-            f"{_where(batch, gb, gk)}, action {ga}, with variable {gl} "
-            f"(robot {int(batch.members[gb, gl])}), action {gc}"
-        )
+    _check_pair_finite(batch, w, valid, layout="bkalc")
     pair = np.zeros((b, k, a, k, a), dtype=dtype)
     np.multiply(w, dtype.type(alpha_b), out=pair, where=valid, casting="unsafe")
     return pair
