@@ -201,6 +201,11 @@ class GameConfig(_Section):
         description="Floating-point precision of the payoff tables and marginals (float32 "
         "halves the memory of the pairwise table, B K^2 A^2 values).",
     )
+    engine: Literal["auto", "compiled", "blas", "sequential"] = Field(
+        "auto",
+        description="Mean-field engine: compiled (Numba kernel, all cores), blas or sequential "
+        "(numpy); auto = compiled when Numba is installed. They agree to rounding.",
+    )
     exact_max_profiles: int = Field(
         1_000_000,
         ge=1,

@@ -11,12 +11,12 @@ from swarmgames.game import evaluate_payoffs, local_regret, mean_field
 from swarmgames.game.meanfield import masked_softmax
 from tests.game.helpers import random_games, trimmed_game
 
-SUMMATIONS = ["blas", "sequential"]
+ENGINES = ["compiled", "blas", "sequential"]
 
 
-def _solve(batch, pot, summation="blas", beta=3.0, delta=1e-9, max_iter=300, alpha_b=0.5):
+def _solve(batch, pot, engine="blas", beta=3.0, delta=1e-9, max_iter=300, alpha_b=0.5):
     payoffs = evaluate_payoffs(batch, pot, 1.0, alpha_b)
-    return payoffs, mean_field(payoffs, beta, delta, max_iter, summation=summation)
+    return payoffs, mean_field(payoffs, beta, delta, max_iter, engine=engine)
 
 
 def test_two_variable_update_matches_hand_computation():
@@ -54,10 +54,10 @@ def test_no_pairwise_term_converges_in_one_sweep_to_the_unary_softmax():
     assert np.all(res.iterations == 1) and np.all(res.converged) and np.all(res.kl == 0)
 
 
-@pytest.mark.parametrize("summation", SUMMATIONS)
-def test_marginals_are_distributions_and_padding_gets_no_probability(summation):
+@pytest.mark.parametrize("engine", ENGINES)
+def test_marginals_are_distributions_and_padding_gets_no_probability(engine):
     batch, pot = random_games(2, 20, 5, 6)
-    _, res = _solve(batch, pot, summation)
+    _, res = _solve(batch, pot, engine)
     q = res.marginals
     assert np.all(np.isfinite(q))
     assert np.all(q[~batch.action_mask] == 0.0)
@@ -65,15 +65,15 @@ def test_marginals_are_distributions_and_padding_gets_no_probability(summation):
     assert np.all(q.sum(axis=2)[~batch.mask] == 0.0)
 
 
-@pytest.mark.parametrize("summation", SUMMATIONS)
-def test_kl_stopping_and_max_iter_are_honoured(summation):
+@pytest.mark.parametrize("engine", ENGINES)
+def test_kl_stopping_and_max_iter_are_honoured(engine):
     batch, pot = random_games(4, 30, 5, 4)
     delta = 1e-4
-    _, res = _solve(batch, pot, summation, beta=4.0, delta=delta, max_iter=200)
+    _, res = _solve(batch, pot, engine, beta=4.0, delta=delta, max_iter=200)
     assert np.all(res.kl[res.converged] < delta)
     assert np.all(res.iterations >= 1) and np.all(res.iterations <= 200)
     # Capped runs stop at exactly max_iter and say whether the last sweep met delta.
-    _, capped = _solve(batch, pot, summation, beta=4.0, delta=1e-14, max_iter=2)
+    _, capped = _solve(batch, pot, engine, beta=4.0, delta=1e-14, max_iter=2)
     assert np.all(capped.iterations <= 2)
     stopped_early = capped.iterations < 2
     assert np.all(capped.converged[stopped_early])
@@ -97,34 +97,34 @@ def test_kl_reported_is_kl_of_the_last_sweep():
         np.testing.assert_array_equal(again.marginals[0], res.marginals[g])
 
 
-@pytest.mark.parametrize("summation", SUMMATIONS)
+@pytest.mark.parametrize("engine", ENGINES)
 @settings(max_examples=30, deadline=None)
 @given(
     seed=st.integers(0, 2**32 - 1), b=st.integers(1, 12), k=st.integers(1, 6), a=st.integers(1, 5)
 )
-def test_batched_equals_one_by_one_same_width(summation, seed, b, k, a):
+def test_batched_equals_one_by_one_same_width(engine, seed, b, k, a):
     # A game's result must not depend on the other games of its batch: bitwise equality.
     batch, pot = random_games(seed, b, k, a)
-    _, res = _solve(batch, pot, summation)
+    _, res = _solve(batch, pot, engine)
     for g in range(b):
-        _, one = _solve(batch.select([g]), pot.select([g]), summation)
+        _, one = _solve(batch.select([g]), pot.select([g]), engine)
         np.testing.assert_array_equal(one.marginals[0], res.marginals[g])
         assert one.iterations[0] == res.iterations[g]
         assert one.converged[0] == res.converged[g]
         assert one.kl[0] == res.kl[g] or (np.isnan(one.kl[0]) and np.isnan(res.kl[g]))
 
 
-@pytest.mark.parametrize("summation", SUMMATIONS)
+@pytest.mark.parametrize("engine", ENGINES)
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
-def test_games_stopping_at_many_sweeps_keep_their_results_through_compaction(summation, dtype):
+def test_games_stopping_at_many_sweeps_keep_their_results_through_compaction(engine, dtype):
     # The working set drops stopped games as they stop (a first copy, then rows moved within
     # it, out of order): every game must still get the bits it gets alone, and its own count.
     batch, pot = random_games(7, 40, 6, 4)
     payoffs = evaluate_payoffs(batch, pot, 1.0, 0.5, dtype=dtype)
-    res = mean_field(payoffs, 4.0, 1e-7, 60, summation=summation)
+    res = mean_field(payoffs, 4.0, 1e-7, 60, engine=engine)
     assert len(np.unique(res.iterations)) >= 5  # many stopping sweeps: compaction happens
     for g in range(40):
-        one = mean_field(payoffs.select(slice(g, g + 1)), 4.0, 1e-7, 60, summation=summation)
+        one = mean_field(payoffs.select(slice(g, g + 1)), 4.0, 1e-7, 60, engine=engine)
         np.testing.assert_array_equal(one.marginals[0], res.marginals[g])
         assert one.iterations[0] == res.iterations[g]
         assert one.converged[0] == res.converged[g]
@@ -136,7 +136,7 @@ def test_games_stopping_at_many_sweeps_keep_their_results_through_compaction(sum
     seed=st.integers(0, 2**32 - 1), b=st.integers(1, 10), k=st.integers(1, 7), a=st.integers(1, 5)
 )
 def test_batched_equals_one_by_one_without_padding_sequential(seed, b, k, a):
-    # Sequential summation is bit-identical whatever the padded width (meanfield docstring).
+    # Sequential engine is bit-identical whatever the padded width (meanfield docstring).
     batch, pot = random_games(seed, b, k, a)
     _, res = _solve(batch, pot, "sequential")
     for g in range(b):
@@ -205,7 +205,10 @@ def test_float32_tables_give_float32_marginals_close_to_float64():
         ({"delta": -1e-3}, r"delta must be > 0"),
         ({"max_iter": 0}, r"max_iter must be an integer >= 1 \(got 0\)"),
         ({"max_iter": 2.5}, r"max_iter must be an integer"),
-        ({"summation": "fast"}, r"summation must be 'blas' or 'sequential'"),
+        (
+            {"engine": "fast"},
+            r"engine must be one of 'auto', 'compiled', 'blas', 'sequential' \(got 'fast'\)",
+        ),
     ],
 )
 def test_invalid_parameters_are_rejected(kwargs, match):
@@ -216,11 +219,11 @@ def test_invalid_parameters_are_rejected(kwargs, match):
         mean_field(payoffs, **args)
 
 
-@pytest.mark.parametrize("summation", SUMMATIONS)
-def test_empty_batch_gives_empty_results(summation):
+@pytest.mark.parametrize("engine", ENGINES)
+def test_empty_batch_gives_empty_results(engine):
     # A stage with no games of some size: nothing to solve, empty arrays of the right shapes.
     batch, pot = random_games(1, 3, 4, 3)
     payoffs = evaluate_payoffs(batch, pot, 1.0, 0.5).select(slice(0, 0))
-    res = mean_field(payoffs, 3.0, 1e-6, 200, summation=summation)
+    res = mean_field(payoffs, 3.0, 1e-6, 200, engine=engine)
     assert res.marginals.shape == (0, 4, 3)
     assert res.iterations.shape == res.converged.shape == res.kl.shape == (0,)

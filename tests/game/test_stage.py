@@ -60,11 +60,13 @@ def test_isolated_robot_stage():
     assert out.actions[0] == 2 and out.actions[1] == 6
 
 
+@pytest.mark.parametrize("engine", ["compiled", "sequential"])
 @pytest.mark.parametrize("buckets", [2, 3, 50])
-def test_buckets_give_the_same_stage_as_one_batch(buckets):
-    # Sequential summation is bit-identical whatever the padded width (meanfield docstring).
+def test_buckets_give_the_same_stage_as_one_batch(buckets, engine):
+    # The compiled and sequential engines are bit-identical whatever the padded width
+    # (meanfield docstring).
     pos, snap = _swarm(25, 4)
-    solver = MeanFieldSolver(alpha_b=0.5, beta=20.0, summation="sequential")
+    solver = MeanFieldSolver(alpha_b=0.5, beta=20.0, engine=engine)
     one = solve_stage(solver, snap, 2, pos, MODEL, POT)
     many = solve_stage(solver, snap, 2, pos, MODEL, POT, buckets=buckets)
     np.testing.assert_array_equal(many.actions, one.actions)

@@ -33,7 +33,7 @@ import numpy as np
 
 from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
 from swarmgames.game.batch import LocalGameBatch, _freeze_arrays
-from swarmgames.game.meanfield import check_parameters, mean_field
+from swarmgames.game.meanfield import ENGINES, check_parameters, mean_field
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
 
 __all__ = [
@@ -299,7 +299,7 @@ class MeanFieldSolver(_Base):
         Whether ``solve_stage`` builds the games with virtual means (eq. 3).
     centralised : bool
         Whether ``solve_stage`` solves the swarm as one game (centralised baseline).
-    summation : {"blas", "sequential"}
+    engine : {"auto", "compiled", "blas", "sequential"}
         See :func:`~swarmgames.game.meanfield.mean_field`.
     """
 
@@ -309,13 +309,17 @@ class MeanFieldSolver(_Base):
     action_choice: Literal["argmax", "sample"] = "argmax"
     virtual_mean: bool = True  # type: ignore[misc]
     centralised: bool = False
-    summation: Literal["blas", "sequential"] = "blas"
+    engine: Literal["auto", "compiled", "blas", "sequential"] = "auto"
 
     def __post_init__(self) -> None:
         check_parameters(self.beta, self.delta, self.max_iter)
         if self.action_choice not in ("argmax", "sample"):
             raise ValueError(
                 f"action_choice must be 'argmax' or 'sample' (got {self.action_choice!r})"
+            )
+        if self.engine not in ENGINES:
+            raise ValueError(
+                f"engine must be one of {', '.join(map(repr, ENGINES))} (got {self.engine!r})"
             )
 
     @property
@@ -328,7 +332,7 @@ class MeanFieldSolver(_Base):
     def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
         """Mean-field marginals of every game, then each owner's action."""
         t0 = time.perf_counter()
-        res = mean_field(payoffs, self.beta, self.delta, self.max_iter, summation=self.summation)
+        res = mean_field(payoffs, self.beta, self.delta, self.max_iter, engine=self.engine)
         q = res.marginals
         masked = np.where(payoffs.action_mask, q, -1.0)
         profile = np.where(payoffs.mask, masked.argmax(axis=2), 0)
@@ -427,6 +431,7 @@ def make_solver(config) -> Solver:
             action_choice=config.action_choice,
             virtual_mean=bool(config.virtual_mean) and name == "mean_field",
             centralised=name == "centralised",
+            engine=getattr(config, "engine", "auto"),
         )
     if name == "exact":
         return ExactSolver(**common, max_profiles=getattr(config, "exact_max_profiles", 1_000_000))

@@ -134,7 +134,7 @@ def solve_stage(
         game and the pairwise table grows with K², so buckets save work and memory when
         neighbourhood sizes are uneven.
         Results do not depend on it, except through the draws of ``rng``, and up to rounding
-        with ``summation="blas"`` (see :mod:`swarmgames.game.meanfield`).
+        with ``engine="blas"`` (see :mod:`swarmgames.game.meanfield`).
 
     Returns
     -------
