@@ -26,8 +26,19 @@ def test_records_of_every_benchmark(tiny):
     for r in stages:
         assert r["median_s"] > 0 and r["peak_mb"] > 0
         assert r["integrate_s"] + r["solve_s"] + r["advance_s"] <= r["median_s"] * 1.5 + 1e-3
-    ratio = next(r for r in tiny.records if r["benchmark"] == "batched_vs_single")
-    assert ratio["n_single"] == 3 and np.isfinite(ratio["ratio"])
+    for kind in ("batched_vs_single", "batched_vs_single_random"):
+        by = {r["engine"]: r for r in tiny.records if r["benchmark"] == kind}
+        assert set(by) == {"compiled", "blas"}  # Numba is a dependency
+        for r in by.values():
+            assert r["n_single"] == 3 and np.isfinite(r["ratio"]) and r["ratio"] > 0
+        compiled, blas = by["compiled"], by["blas"]
+        assert compiled["numpy_single_per_game_s"] == blas["single_per_game_s"]
+        assert compiled["ratio_vs_numpy_single"] == pytest.approx(
+            blas["single_per_game_s"] / compiled["batched_per_game_s"]
+        )
+    decide = next(r for r in tiny.records if r["benchmark"] == "decide_batched_vs_single")
+    assert decide["n_games"] == 12 and decide["n_single"] == 3 and decide["ratio"] > 0
+    assert tiny.meta["numba"]
     assert np.isfinite(tiny.slope)
 
 

@@ -15,9 +15,14 @@ cell stays):
 and ratios measured in the same run:
 
 * ``batched_vs_single`` — solving the stage's local games (N = 1 000, or the largest size
-  up to it) in their batches against one by one;
+  up to it) in their batches against one by one, with each mean-field engine (compiled and
+  numpy BLAS; the compiled record also carries ``ratio_vs_numpy_single``, its batch against
+  numpy one by one);
 * ``batched_vs_single_random`` — the same on 1 000 random games of 8 variables and 9 actions
   (the engine's own benchmark, :func:`~swarmgames.bench.game.bench_local_game`);
+* ``decide_batched_vs_single`` — a robot's whole decision (its local game built from its
+  messages, integrated and solved) for every robot of the stage in batches, against robots
+  deciding one at a time, as each UAV does on board;
 * ``olsr_vs_ns3`` — the built-in OLSR against ns-3 on the same positions trace (full
   protocol, TCs included), when ns-3 is installed and not ``quick`` (importing ns-3 takes
   about 10 s);
@@ -34,7 +39,7 @@ import resource
 import time
 import tracemalloc
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +47,7 @@ import numpy as np
 
 from swarmgames.bench.game import bench_local_game
 from swarmgames.bench.stage import StageBench
+from swarmgames.game.stage import size_groups
 
 __all__ = ["QUICK_SIZES", "SIZES", "BenchResult", "run_suite"]
 
@@ -118,13 +124,25 @@ class BenchResult:
                     f"integration per robot-action at N = {r['n_robots']:,}: "
                     f"{_fmt_s(r['median_s'])}"
                 )
-        for r in self._of("batched_vs_single") + self._of("batched_vs_single_random"):
-            kind = "coverage" if r["benchmark"] == "batched_vs_single" else "random K = 8"
+        kinds = {
+            "batched_vs_single": "coverage games",
+            "batched_vs_single_random": "random K = 8 games",
+            "decide_batched_vs_single": "coverage decisions: build + integrate + solve",
+        }
+        rows = [r for name in kinds for r in self._of(name)]
+        for r in rows:
+            kind = kinds[r["benchmark"]]
+            engine = r.get("engine", "blas")
             notes.append(
-                f"batched vs one by one ({r['n_games']} {kind} games): {r['ratio']:.0f}x "
-                f"({_fmt_s(r['batched_per_game_s'])} vs {_fmt_s(r['single_per_game_s'])} "
-                "per game)"
+                f"batched vs one by one ({r['n_games']} {kind}, {engine}): "
+                f"{r['ratio']:.1f}x ({_fmt_s(r['batched_per_game_s'])} vs "
+                f"{_fmt_s(r['single_per_game_s'])} per game)"
             )
+            if "ratio_vs_numpy_single" in r:
+                notes.append(
+                    f"  compiled batch vs numpy one by one ({kind}): "
+                    f"{r['ratio_vs_numpy_single']:.0f}x"
+                )
         for r in self._of("olsr_vs_ns3"):
             if r.get("skipped"):
                 notes.append(f"olsr vs ns-3: skipped ({r['skipped']})")
@@ -196,6 +214,14 @@ class BenchResult:
         return paths
 
 
+def _numba_version() -> str | None:
+    try:
+        import numba
+    except ImportError:
+        return None
+    return numba.__version__
+
+
 def _say(progress: bool, msg: str) -> None:
     if progress:
         from rich.console import Console
@@ -262,15 +288,30 @@ def _stage_records(n: int, repeats: int, seed: int, workers: int) -> tuple[list[
     ], sb
 
 
-def _batched_vs_single(sb: StageBench, n_single: int, seed: int) -> dict:
-    """Solve the stage's local games in their batches and ``n_single`` of them one by one."""
+def _engines() -> tuple[str, ...]:
+    """Mean-field engines compared by the batching benchmarks: the compiled one (when Numba
+    is installed) and the numpy BLAS reference."""
+    from swarmgames.game.meanfield import compiled_available
+
+    return ("compiled", "blas") if compiled_available() else ("blas",)
+
+
+def _batched_vs_single(sb: StageBench, n_single: int, seed: int, engine: str) -> dict:
+    """Solve the stage's local games in their batches and ``n_single`` of them one by one,
+    with the mean-field ``engine`` (batched: best of 3; one by one: mean, after one untimed
+    solve of each kind, so that compilation is not timed)."""
     ctrl = sb.controller
     pays = [p for _, p, _ in ctrl._game_groups(sb.snapshot, sb.positions, True)]
-    solver = ctrl.solver
-    t0 = time.perf_counter()
+    solver = replace(ctrl.solver, engine=engine)
+    solver.solve_payoffs(pays[0].select(slice(0, 1)), sb.rng)
     for p in pays:
         solver.solve_payoffs(p, sb.rng)
-    batched = time.perf_counter() - t0
+    batched = np.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        for p in pays:
+            solver.solve_payoffs(p, sb.rng)
+        batched = min(batched, time.perf_counter() - t0)
     n_games = sum(p.shape[0] for p in pays)
     rng = np.random.default_rng(seed)
     picks = rng.choice(n_games, size=min(n_single, n_games), replace=False)
@@ -286,6 +327,7 @@ def _batched_vs_single(sb: StageBench, n_single: int, seed: int) -> dict:
     per_single = float(np.mean(singles))
     return {
         "benchmark": "batched_vs_single",
+        "engine": engine,
         "n_robots": sb.n_robots,
         "n_games": int(n_games),
         "n_single": len(singles),
@@ -294,6 +336,64 @@ def _batched_vs_single(sb: StageBench, n_single: int, seed: int) -> dict:
         "median_s": per_batched,
         "ratio": per_single / per_batched,
     }
+
+
+def _decide_batched_vs_single(sb: StageBench, n_single: int, seed: int) -> dict:
+    """A robot's whole decision — its local game built from its messages, integrated and
+    solved — for every robot of the stage in their batches, against ``n_single`` robots each
+    deciding alone (what one UAV computes on board), with the solver's default engine."""
+    from swarmgames.game.local import broadcast, build_local_games, gather_views
+
+    ctrl = sb.controller
+    vm = bool(ctrl.solver.virtual_mean)
+
+    def decide(owners) -> None:
+        messages = broadcast(sb.snapshot, sb.config.network.hops, sb.positions)
+        for group in owners:
+            batch = build_local_games(gather_views(messages, group), ctrl.model, virtual_mean=vm)
+            ctrl.solver.solve_payoffs(ctrl.solver.evaluate(batch, ctrl.potentials), sb.rng)
+
+    messages = broadcast(sb.snapshot, sb.config.network.hops, sb.positions)
+    sizes = np.diff(messages.indptr)
+    groups = size_groups(sizes, int(ctrl.solver.buckets), int(ctrl.model.n_actions))
+    rng = np.random.default_rng(seed)
+    picks = rng.choice(sb.n_robots, size=min(n_single, sb.n_robots), replace=False)
+    decide([picks[:1]])
+    batched = np.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        decide(groups)
+        batched = min(batched, time.perf_counter() - t0)
+    singles = []
+    for i in picks:
+        t0 = time.perf_counter()
+        decide([np.array([i])])
+        singles.append(time.perf_counter() - t0)
+    per_batched = batched / sb.n_robots
+    per_single = float(np.mean(singles))
+    return {
+        "benchmark": "decide_batched_vs_single",
+        "engine": _engines()[0] if ctrl.solver.engine == "auto" else ctrl.solver.engine,
+        "n_robots": sb.n_robots,
+        "n_games": sb.n_robots,
+        "n_single": len(singles),
+        "batched_per_game_s": per_batched,
+        "single_per_game_s": per_single,
+        "median_s": per_batched,
+        "ratio": per_single / per_batched,
+    }
+
+
+def _cross_ratios(records: list[dict[str, Any]]) -> None:
+    """Add to each compiled record the one-by-one time of the numpy (BLAS) engine on the same
+    games and ``ratio_vs_numpy_single``: the compiled batch against solving each game alone
+    with numpy."""
+    for kind in ("batched_vs_single", "batched_vs_single_random"):
+        by = {r["engine"]: r for r in records if r["benchmark"] == kind}
+        if "compiled" in by and "blas" in by:
+            c, b = by["compiled"], by["blas"]
+            c["numpy_single_per_game_s"] = b["single_per_game_s"]
+            c["ratio_vs_numpy_single"] = b["single_per_game_s"] / c["batched_per_game_s"]
 
 
 def _olsr_vs_ns3(n: int, sim_seconds: float, seed: int) -> dict:
@@ -394,26 +494,39 @@ def run_suite(
         if n <= 1_000:
             ratio_bench = sb
         del sb
+    for engine in _engines():
+        if ratio_bench is not None:
+            _say(progress, f"batched vs one by one, N = {ratio_bench.n_robots:,}, {engine}")
+            records.append(_batched_vs_single(ratio_bench, n_single, seed, engine))
+        _say(progress, f"batched vs one by one, random games (K = 8, A = 9), {engine}")
+        rnd = bench_local_game(
+            min(1000, 10 * n_single),
+            8,
+            9,
+            seed,
+            beta=50.0,
+            n_single=n_single,
+            dtype=np.float32,
+            engine=engine,
+        )
+        records.append(
+            {
+                "benchmark": "batched_vs_single_random",
+                "engine": engine,
+                "n_robots": rnd["n_games"],
+                "n_games": rnd["n_games"],
+                "n_single": min(n_single, rnd["n_games"]),
+                "batched_per_game_s": rnd["batched_per_game_ms"] / 1e3,
+                "single_per_game_s": rnd["single_per_game_ms"] / 1e3,
+                "median_s": rnd["batched_per_game_ms"] / 1e3,
+                "ratio": rnd["speedup"],
+            }
+        )
     if ratio_bench is not None:
-        _say(progress, f"batched vs one by one, N = {ratio_bench.n_robots:,}")
-        records.append(_batched_vs_single(ratio_bench, n_single, seed))
+        _say(progress, f"whole decisions batched vs one by one, N = {ratio_bench.n_robots:,}")
+        records.append(_decide_batched_vs_single(ratio_bench, n_single, seed))
     del ratio_bench
-    _say(progress, "batched vs one by one, random games (K = 8, A = 9)")
-    rnd = bench_local_game(
-        min(1000, 10 * n_single), 8, 9, seed, beta=50.0, n_single=n_single, dtype=np.float32
-    )
-    records.append(
-        {
-            "benchmark": "batched_vs_single_random",
-            "n_robots": rnd["n_games"],
-            "n_games": rnd["n_games"],
-            "n_single": min(n_single, rnd["n_games"]),
-            "batched_per_game_s": rnd["batched_per_game_ms"] / 1e3,
-            "single_per_game_s": rnd["single_per_game_ms"] / 1e3,
-            "median_s": rnd["batched_per_game_ms"] / 1e3,
-            "ratio": rnd["speedup"],
-        }
-    )
+    _cross_ratios(records)
     st = [r for r in records if r["benchmark"] == "stage" and r["n_robots"] >= 100]
     if len(st) < 2:
         st = [r for r in records if r["benchmark"] == "stage"]
@@ -442,6 +555,7 @@ def run_suite(
             "quick": bool(quick),
             "sizes": list(sizes),
             "numpy": np.__version__,
+            "numba": _numba_version(),
             "wall_s": time.perf_counter() - t_start,
             "scenario": "scaled_config: 70 000 m2 per UAV, 20 m cells, floor -100 dBm",
             "workers": int(workers),
