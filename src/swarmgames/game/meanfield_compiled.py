@@ -110,22 +110,23 @@ def _solve_game(logits, w, nv, has_pair, beta, delta, max_iter, q_out):
     return it, kl
 
 
+@njit(cache=True, nogil=True)
+def _solve_into(g, logits, w, nv, has_pair, beta, delta, max_iter, q, its, kls):
+    """Solve game ``g`` of the batch into row ``g`` of the outputs."""
+    gw = g * np.int64(has_pair)  # the dummy table of a batch without pairwise term
+    its[g], kls[g] = _solve_game(logits[g], w[gw], nv[g], has_pair, beta, delta, max_iter, q[g])
+
+
 @njit(cache=True, nogil=True, parallel=True)
 def _solve_parallel(logits, w, nv, has_pair, beta, delta, max_iter, q, its, kls):
     for g in prange(logits.shape[0]):
-        gw = g * np.int64(has_pair)
-        it, kl = _solve_game(logits[g], w[gw], nv[g], has_pair, beta, delta, max_iter, q[g])
-        its[g] = it
-        kls[g] = kl
+        _solve_into(g, logits, w, nv, has_pair, beta, delta, max_iter, q, its, kls)
 
 
 @njit(cache=True, nogil=True)
 def _solve_serial(logits, w, nv, has_pair, beta, delta, max_iter, q, its, kls):
     for g in range(logits.shape[0]):
-        gw = g * np.int64(has_pair)
-        it, kl = _solve_game(logits[g], w[gw], nv[g], has_pair, beta, delta, max_iter, q[g])
-        its[g] = it
-        kls[g] = kl
+        _solve_into(g, logits, w, nv, has_pair, beta, delta, max_iter, q, its, kls)
 
 
 PARALLEL_MIN_GAMES = 8
