@@ -71,3 +71,9 @@ def test_config_rejects_unknown_solver_and_bad_values():
         GameConfig(beta=0.0)
     with pytest.raises((ConfigError, ValueError)):
         GameConfig(delta=0.0)
+
+
+@pytest.mark.parametrize("engine", ["auto", "compiled", "blas", "sequential"])
+def test_game_config_engine_reaches_the_mean_field_solver(engine):
+    assert make_solver(GameConfig(engine=engine)).engine == engine
+    assert make_solver(GameConfig(solver="centralised", engine=engine)).engine == engine

@@ -68,6 +68,21 @@ def test_same_seed_identical_run_and_other_seed_differs(backend):
     assert not a.trajectory.equals(c.trajectory)
 
 
+def test_mean_field_engines_fly_the_same_mission():
+    # The engines agree to rounding (swarmgames.game.meanfield): at the default β = 50 the
+    # robots' argmax actions, hence the trajectories, are the same. 12 UAVs over 2 hops, so
+    # the compiled engine runs its parallel path (>= 8 games per batch) with virtual means.
+    runs = {}
+    for engine in ("compiled", "blas", "sequential"):
+        cfg = _cfg(seed=2, swarm={"n_robots": 12, "start_radius_m": 300.0}, game={"engine": engine})
+        assert cfg.game.engine == engine
+        runs[engine] = run(cfg, progress=False, provider=DiskOracle(radius=250.0))
+    ref = runs["blas"].trajectory
+    assert runs["blas"].to_frame()["max_hops"].max() >= 2
+    for engine in ("compiled", "sequential"):
+        assert runs[engine].trajectory.equals(ref)
+
+
 class _Interrupting:
     """Wraps a controller and raises KeyboardInterrupt in stage ``at``."""
 
