@@ -341,19 +341,20 @@ def _batched_vs_single(sb: StageBench, n_single: int, seed: int, engine: str) ->
 def _decide_batched_vs_single(sb: StageBench, n_single: int, seed: int) -> dict:
     """A robot's whole decision — its local game built from its messages, integrated and
     solved — for every robot of the stage in their batches, against ``n_single`` robots each
-    deciding alone (what one UAV computes on board), with the solver's default engine."""
+    deciding alone (what one UAV computes on board), with the solver's engine. The messages
+    (what the robots received) are computed once, outside both timings."""
     from swarmgames.game.local import broadcast, build_local_games, gather_views
+    from swarmgames.game.meanfield import resolve_engine
 
     ctrl = sb.controller
     vm = bool(ctrl.solver.virtual_mean)
+    messages = broadcast(sb.snapshot, sb.config.network.hops, sb.positions)
 
     def decide(owners) -> None:
-        messages = broadcast(sb.snapshot, sb.config.network.hops, sb.positions)
         for group in owners:
             batch = build_local_games(gather_views(messages, group), ctrl.model, virtual_mean=vm)
             ctrl.solver.solve_payoffs(ctrl.solver.evaluate(batch, ctrl.potentials), sb.rng)
 
-    messages = broadcast(sb.snapshot, sb.config.network.hops, sb.positions)
     sizes = np.diff(messages.indptr)
     groups = size_groups(sizes, int(ctrl.solver.buckets), int(ctrl.model.n_actions))
     rng = np.random.default_rng(seed)
@@ -373,7 +374,7 @@ def _decide_batched_vs_single(sb: StageBench, n_single: int, seed: int) -> dict:
     per_single = float(np.mean(singles))
     return {
         "benchmark": "decide_batched_vs_single",
-        "engine": _engines()[0] if ctrl.solver.engine == "auto" else ctrl.solver.engine,
+        "engine": resolve_engine(ctrl.solver.engine),
         "n_robots": sb.n_robots,
         "n_games": sb.n_robots,
         "n_single": len(singles),

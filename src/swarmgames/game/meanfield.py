@@ -68,7 +68,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from swarmgames.game.batch import _freeze_arrays
-from swarmgames.game.potentials import GamePayoffs
+from swarmgames.game.potentials import GamePayoffs, _check_empty_actions
 
 __all__ = [
     "ENGINES",
@@ -76,6 +76,7 @@ __all__ = [
     "compiled_available",
     "masked_softmax",
     "mean_field",
+    "resolve_engine",
     "seq_sum",
 ]
 
@@ -92,7 +93,16 @@ def compiled_available() -> bool:
     return True
 
 
-def _resolve_engine(engine: str) -> str:
+def resolve_engine(engine: str) -> str:
+    """The engine that ``mean_field(engine=engine)`` runs (``"auto"`` resolved).
+
+    Raises
+    ------
+    ValueError
+        An unknown engine.
+    BackendUnavailableError
+        ``"compiled"`` without Numba.
+    """
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {', '.join(map(repr, ENGINES))} (got {engine!r})")
     if engine == "auto":
@@ -285,17 +295,6 @@ _matmul, _multiply, _add, _subtract, _exp, _divide = (
 _max_reduce, _add_reduce = np.maximum.reduce, np.add.reduce
 
 
-def _check_actions(payoffs: GamePayoffs) -> None:
-    """Every valid variable needs a valid action (else its marginal is undefined)."""
-    empty = payoffs.mask & ~payoffs.action_mask.any(axis=2)
-    if empty.any():
-        g, k = (int(v) for v in np.argwhere(empty)[0])
-        raise ValueError(
-            f"action set is empty for variable {k} of game {g} "
-            f"(robot {int(payoffs.members[g, k])} in the game of robot {int(payoffs.owner[g])})"
-        )
-
-
 def _mean_field_compiled(
     payoffs: GamePayoffs, logits: np.ndarray, beta, delta: float, max_iter: int
 ) -> MeanFieldResult:
@@ -373,8 +372,8 @@ def mean_field(
         ``engine="compiled"`` without Numba.
     """
     check_parameters(beta, delta, max_iter)
-    engine = _resolve_engine(engine)
-    _check_actions(payoffs)
+    engine = resolve_engine(engine)
+    _check_empty_actions(payoffs)
     b, k_vars, a = payoffs.unary.shape
     dt = payoffs.unary.dtype
     beta_t = dt.type(beta)

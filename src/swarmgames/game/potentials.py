@@ -186,7 +186,8 @@ def _where(batch: LocalGameBatch, b: int, k: int) -> str:
     return f"local game of robot {owner} (game {b}), variable {k} (robot {member})"
 
 
-def _check_empty_actions(batch: LocalGameBatch) -> None:
+def _check_empty_actions(batch: LocalGameBatch | GamePayoffs) -> None:
+    """Every valid variable needs a valid action (else its marginal is undefined)."""
     empty = batch.mask & ~batch.action_mask.any(axis=2)
     if empty.any():
         b, k = (int(v) for v in np.argwhere(empty)[0])
