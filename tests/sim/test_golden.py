@@ -1,0 +1,43 @@
+"""Golden runs: refactors must not change what a run computes.
+
+The files in ``tests/data/golden/<case>/`` were written by ``swarmgames run`` before the
+mission plug-in redesign (``trajectory.csv`` and ``swarm.csv`` as written, ``metrics.csv``
+without its two wall-time columns). ``trajectory.csv`` must stay byte-identical; the other two
+tables must hold the same values.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from swarmgames.config import resolve_scenario
+from swarmgames.sim import run
+
+GOLDEN = Path(__file__).parent.parent / "data" / "golden"
+QUICK = ["sim.animation=false"]
+CASES = {
+    "coverage": ("coverage", []),
+    "coverage-paper": ("coverage-paper", []),
+    "lloyd": ("coverage", ["sim.controller='lloyd'", "sim.duration_s=20.0"]),
+    "centralised": ("coverage", ["game.solver='centralised'", "sim.duration_s=20.0"]),
+    "acceleration": ("coverage", ["swarm.action_set='acceleration'", "sim.duration_s=20.0"]),
+    "hops3": ("coverage", ["network.hops=3", "swarm.n_robots=12", "sim.duration_s=20.0"]),
+}
+TIMING = ["solve_ms", "integrate_ms"]
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_run_matches_golden_files(case: str, tmp_path: Path) -> None:
+    scenario, overrides = CASES[case]
+    config = resolve_scenario(scenario, [*overrides, *QUICK])
+    run(config, out=tmp_path / "run", progress=False)
+    want, got = GOLDEN / case, tmp_path / "run"
+    assert (got / "trajectory.csv").read_bytes() == (want / "trajectory.csv").read_bytes()
+    pd.testing.assert_frame_equal(
+        pd.read_csv(got / "swarm.csv"), pd.read_csv(want / "swarm.csv"), check_exact=True
+    )
+    metrics = pd.read_csv(got / "metrics.csv").drop(columns=TIMING)
+    pd.testing.assert_frame_equal(metrics, pd.read_csv(want / "metrics.csv"), check_exact=True)
