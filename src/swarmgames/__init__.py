@@ -1,22 +1,27 @@
 """swarmgames: decentralised UAV swarm control with graphical games over time-varying
-communication networks."""
+communication networks.
 
-from swarmgames.errors import (
-    BackendUnavailableError,
-    ConfigError,
-    InputDataError,
-    NotAvailableError,
-    RunFolderError,
-    SwarmgamesError,
-)
-from swarmgames.network import NeighbourhoodProvider, TopologySnapshot
+The public names are imported on first use, so that ``import swarmgames`` (and the CLI, and
+``import swarmgames.game``) stays fast and loads no layer it does not need.
+"""
 
 __version__ = "0.1.0"
 
-#: Names imported on first use, so that ``import swarmgames`` (and the CLI) stays fast.
+#: Public name -> the module that defines it.
 _LAZY = {
-    "run": "swarmgames.sim",
+    "BackendUnavailableError": "swarmgames.errors",
+    "ConfigError": "swarmgames.errors",
+    "InputDataError": "swarmgames.errors",
+    "RunFolderError": "swarmgames.errors",
+    "SwarmgamesError": "swarmgames.errors",
+    "Mission": "swarmgames.missions",
+    "MissionEntry": "swarmgames.missions",
+    "check_mission": "swarmgames.missions",
+    "register_mission": "swarmgames.missions",
+    "NeighbourhoodProvider": "swarmgames.network",
+    "TopologySnapshot": "swarmgames.network",
     "RunResult": "swarmgames.sim",
+    "run": "swarmgames.sim",
     "ScenarioConfig": "swarmgames.config",
     "reproduce_fig2": "swarmgames.experiments.fig2",
 }
@@ -30,18 +35,8 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'swarmgames' has no attribute {name!r}")
 
 
-__all__ = [
-    "BackendUnavailableError",
-    "ConfigError",
-    "InputDataError",
-    "NeighbourhoodProvider",
-    "NotAvailableError",
-    "RunFolderError",
-    "RunResult",
-    "ScenarioConfig",
-    "SwarmgamesError",
-    "TopologySnapshot",
-    "__version__",
-    "reproduce_fig2",
-    "run",
-]
+def __dir__() -> list[str]:
+    return sorted([*_LAZY, "__version__"])
+
+
+__all__ = sorted([*_LAZY, "__version__"])

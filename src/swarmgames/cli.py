@@ -17,7 +17,6 @@ from swarmgames import __version__
 from swarmgames.errors import (
     ConfigError,
     InputDataError,
-    NotAvailableError,
     RunFolderError,
     SwarmgamesError,
 )
@@ -54,44 +53,14 @@ def _guarded(fn: Callable[..., Any]) -> Callable[..., Any]:
     return wrapper
 
 
-def _not_available(what: str) -> NoReturn:
-    raise NotAvailableError(f"{what} is not available in swarmgames {__version__} yet")
-
-
 def _interactive() -> bool:
     return sys.stderr.isatty()
 
 
-class _ProgressBar:
-    """A transient rich progress bar whose callback takes ``(done, total)``; or nothing."""
+def _progress(description: str, enabled: bool):
+    from swarmgames.sim.progress import ProgressBar
 
-    def __init__(self, description: str, enabled: bool) -> None:
-        self.description, self.enabled = description, enabled
-        self.bar: Any = None
-
-    def __enter__(self) -> Callable[[float, float], None] | None:
-        if not self.enabled:
-            return None
-        from rich.progress import BarColumn, Progress, TaskProgressColumn, TimeElapsedColumn
-
-        self.bar = Progress(
-            "[progress.description]{task.description}",
-            BarColumn(),
-            TaskProgressColumn(),
-            TimeElapsedColumn(),
-            transient=True,
-        )
-        self.bar.__enter__()
-        task = self.bar.add_task(self.description, total=None)
-
-        def update(done: float, total: float) -> None:
-            self.bar.update(task, completed=done, total=total)
-
-        return update
-
-    def __exit__(self, *exc: Any) -> None:
-        if self.bar is not None:
-            self.bar.__exit__(*exc)
+    return ProgressBar(description, enabled)
 
 
 def _console():
@@ -174,11 +143,9 @@ def run(
     """
     from swarmgames.config import resolve_scenario
     from swarmgames.sim import run as run_mission
-    from swarmgames.sim.runner import check_config
 
     extra = (*overrides, f"seed={seed}") if seed is not None else overrides
-    config = resolve_scenario(scenario, extra)
-    check_config(config)  # before the folder is created
+    config = resolve_scenario(scenario, extra)  # validated before the folder is created
     folder = _open_run_folder(out, config.name, force)
     try:
         result = run_mission(config, out=folder, progress=not no_progress and _interactive())
@@ -245,7 +212,7 @@ def reproduce(
     if "fig1" in folders:
         from swarmgames.experiments.fig1 import reproduce_fig1
 
-        with _ProgressBar(f"Figure 1 ({backend})", progress) as tick:
+        with _progress(f"Figure 1 ({backend})", progress) as tick:
             res1 = reproduce_fig1(
                 backend, seed=seed, config=base.network, out=folders["fig1"], progress=tick
             )
@@ -321,7 +288,7 @@ def replay(
     cfg = resolve_scenario(None, overrides).network
     trace = read_positions(positions)  # validate before creating the folder
     folder = _open_run_folder(out, f"replay-{positions.stem}", force)
-    with _ProgressBar(f"replay ({backend})", not no_progress and _interactive()) as tick:
+    with _progress(f"replay ({backend})", not no_progress and _interactive()) as tick:
         res = replay_trace(
             trace,
             backend,
@@ -506,6 +473,51 @@ def config_list() -> None:
 
     for name in builtin_scenarios():
         click.echo(name)
+
+
+# ----------------------------------------------------------------------------- missions
+
+
+@cli.group()
+def missions() -> None:
+    """List the registered missions and check a mission plug-in."""
+
+
+@missions.command("list")
+def missions_list() -> None:
+    """List the registered missions (built-in and installed plug-ins)."""
+    from swarmgames.missions import get_mission, mission_names
+
+    for name in mission_names():
+        click.echo(f"{name:<12} {get_mission(name).description}")
+
+
+@missions.command("check")
+@click.argument("name")
+@set_option
+@click.option(
+    "--robots", type=click.IntRange(min=2), default=4, show_default=True, help="Test swarm size."
+)
+@_guarded
+def missions_check(name: str, overrides: tuple[str, ...], robots: int) -> None:
+    """Run the conformance check (check_mission) on mission NAME built from its default
+    section; exit 0 if it conforms, 1 with one line per problem if not."""
+    from swarmgames.config import parse_config
+    from swarmgames.config.io import set_path
+    from swarmgames.missions import check_mission, get_mission
+    from swarmgames.missions.conformance import MissionCheckError
+
+    entry = get_mission(name)
+    data: dict[str, Any] = {"name": name, "scenario": name}
+    for assignment in overrides:
+        set_path(data, assignment)
+    config = parse_config(data, source=f"mission {name!r}")
+    try:
+        check_mission(entry.build(config), n_robots=robots)
+    except MissionCheckError as exc:
+        click.secho(str(exc), fg="red", err=True)
+        sys.exit(EXIT_FAILED)
+    click.echo(f"mission {name!r} conforms")
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -10,9 +10,7 @@ from __future__ import annotations
 __all__ = [
     "BackendUnavailableError",
     "ConfigError",
-    "ConvergenceError",
     "InputDataError",
-    "NotAvailableError",
     "RunFolderError",
     "SwarmgamesError",
 ]
@@ -48,26 +46,3 @@ class RunFolderError(SwarmgamesError, FileExistsError):
 
 class BackendUnavailableError(SwarmgamesError, ImportError):
     """An optional backend (for example ns-3) is not installed; the message says how to get it."""
-
-
-class NotAvailableError(SwarmgamesError, NotImplementedError):
-    """A capability that this version of swarmgames does not provide yet."""
-
-
-class ConvergenceError(SwarmgamesError, RuntimeError):
-    """An iterative solver did not converge and the caller asked for that to be an error.
-
-    Parameters
-    ----------
-    message : str
-        What did not converge.
-    iterations : int
-        Iterations performed.
-    residual : float
-        The last value of the stopping criterion (for example the KL divergence).
-    """
-
-    def __init__(self, message: str, iterations: int, residual: float) -> None:
-        super().__init__(message)
-        self.iterations = iterations
-        self.residual = residual

@@ -14,17 +14,19 @@ from swarmgames.game import (
     make_solver,
     solve_stage,
 )
+from swarmgames.sim.controllers import solver_from_config
 from tests.game.helpers import MODEL, POT, random_games
 from tests.game.helpers import swarm as _swarm
 
 
-@pytest.mark.parametrize("name", SOLVERS)
-def test_every_solver_returns_a_valid_action_per_robot(name):
+@pytest.mark.parametrize(("name", "centralised"), [*((s, False) for s in SOLVERS), ("mean_field", True)])
+def test_every_solver_returns_a_valid_action_per_robot(name, centralised):
     pos, snap = _swarm(8)
-    cfg = GameConfig(solver=name, alpha_b=0.5, beta=20.0, exact_max_profiles=10**7)
-    solver = make_solver(cfg)
+    cfg = GameConfig(solver="centralised" if centralised else name, alpha_b=0.5, beta=20.0)
+    cfg = cfg.model_copy(update={"max_profiles": 10**7})
+    solver = solver_from_config(cfg)
     assert solver.name == name and isinstance(solver, Solver)
-    out = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=0)
+    out = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=0, centralised=centralised, keep_games=True)
     assert out.actions.shape == (8,)
     valid = MODEL.valid(pos)
     assert np.all(valid[np.arange(8), out.actions])
@@ -32,12 +34,18 @@ def test_every_solver_returns_a_valid_action_per_robot(name):
     sol = out.solution
     assert isinstance(sol, GameSolution) and sol.solve_time_s >= 0
     assert sol.to_frame().shape[0] == out.batch.n_games
-    if name == "centralised":
+    if centralised:
         assert out.batch.n_games == 1 and out.batch.n_vars == 8
     else:
         assert out.batch.n_games == 8
-        if name == "no_virtual_mean":
-            assert not out.batch.is_virtual.any()
+
+
+def test_make_solver_takes_plain_parameters_and_rejects_unknown_ones():
+    assert make_solver("exact", max_profiles=10).max_profiles == 10
+    with pytest.raises(ValueError, match="solver must be one of"):
+        make_solver("annealing")
+    with pytest.raises(ValueError, match=r"solver 'random' takes no parameter 'beta'"):
+        make_solver("random", beta=1.0)
 
 
 def test_sampled_actions_are_reproducible_and_follow_the_marginal():
@@ -75,5 +83,5 @@ def test_config_rejects_unknown_solver_and_bad_values():
 
 @pytest.mark.parametrize("engine", ["auto", "compiled", "blas", "sequential"])
 def test_game_config_engine_reaches_the_mean_field_solver(engine):
-    assert make_solver(GameConfig(engine=engine)).engine == engine
-    assert make_solver(GameConfig(solver="centralised", engine=engine)).engine == engine
+    assert solver_from_config(GameConfig(engine=engine)).engine == engine
+    assert solver_from_config(GameConfig(solver="centralised", engine=engine)).engine == engine

@@ -7,7 +7,6 @@ import itertools
 import numpy as np
 import pytest
 
-from swarmgames.config import GameConfig
 from swarmgames.game import (
     MeanFieldSolver,
     evaluate_payoffs,
@@ -18,34 +17,81 @@ from swarmgames.game import (
     solve_stage,
     stage_regret,
 )
+from swarmgames.game.stage import measure_stage
 from tests.game.helpers import MODEL, POT, disk_snapshot
 from tests.game.helpers import swarm as _swarm
 
 
 def test_virtual_mean_switch_changes_the_games():
     pos, snap = _swarm(15, 1)
-    with_v = solve_stage(make_solver(GameConfig(solver="mean_field")), snap, 1, pos, MODEL, POT)
-    without = solve_stage(
-        make_solver(GameConfig(solver="no_virtual_mean")), snap, 1, pos, MODEL, POT
-    )
+    solver = make_solver("mean_field")
+    with_v = solve_stage(solver, snap, 1, pos, MODEL, POT, keep_games=True)
+    without = solve_stage(solver, snap, 1, pos, MODEL, POT, virtual_mean=False, keep_games=True)
     assert with_v.batch.is_virtual.any() and not without.batch.is_virtual.any()
-    off = make_solver(GameConfig(solver="mean_field", virtual_mean=False))
-    assert not off.virtual_mean
+
+
+class _Counting:
+    """Potentials that count how many local games they evaluate."""
+
+    def __init__(self, inner):
+        self.inner, self.games = inner, 0
+
+    def unary(self, batch):
+        self.games += batch.n_games
+        return self.inner.unary(batch)
+
+    def pairwise(self, batch):
+        return self.inner.pairwise(batch)
+
+
+@pytest.mark.parametrize("virtual_mean", [True, False])
+def test_global_regret_reuses_the_solved_tables(virtual_mean):
+    # The true game of robot i is the solved game itself unless a member of N_i was replaced
+    # by a virtual mean: only those games are evaluated a second time, and the result equals
+    # rebuilding every true game (stage_regret, the reference).
+    pos, snap = _swarm(15, 5)
+    solver = make_solver("mean_field", alpha_b=0.5)
+    pot = _Counting(POT)
+    out = solve_stage(solver, snap, 2, pos, MODEL, pot, virtual_mean=virtual_mean)
+    virtual = local_games(snap, 2, pos, MODEL).is_virtual.any(axis=1)
+    assert 0 < virtual.sum() < 15
+    assert pot.games == 15 + (int(virtual.sum()) if virtual_mean else 0)
+    ref = stage_regret(snap, 2, pos, MODEL, POT, out.actions, 1.0, 0.5)
+    np.testing.assert_array_equal(out.global_regret, ref)
+    skipped = solve_stage(solver, snap, 2, pos, MODEL, pot, global_regret=False)
+    assert np.isnan(skipped.global_regret).all()
+
+
+def test_measure_stage_scores_given_actions_on_the_true_games():
+    pos, snap = _swarm(12, 6)
+    solver = make_solver("mean_field", alpha_b=0.5)
+    actions = np.random.default_rng(0).integers(0, MODEL.n_actions, 12)
+    actions = np.where(MODEL.valid(pos)[np.arange(12), actions], actions, 0)
+    out = measure_stage(solver, snap, 1, pos, MODEL, POT, actions)
+    np.testing.assert_array_equal(out.actions, actions)
+    ref = stage_regret(snap, 1, pos, MODEL, POT, actions, 1.0, 0.5)
+    np.testing.assert_array_equal(out.global_regret, ref)
+    assert np.all(out.local_regret >= out.global_regret)  # the owner is one of the players
+    with pytest.raises(ValueError, match=r"actions must have shape \(12,\)"):
+        measure_stage(solver, snap, 1, pos, MODEL, POT, actions[:3])
 
 
 def test_low_temperature_stage_profiles_are_local_equilibria():
     pos, snap = _swarm(20, 2)
-    solver = make_solver(GameConfig(beta=1e4, delta=1e-12, max_iter=500, alpha_b=0.5))
-    out = solve_stage(solver, snap, 2, pos, MODEL, POT)
+    solver = make_solver("mean_field", beta=1e4, delta=1e-12, max_iter=500, alpha_b=0.5)
+    out = solve_stage(solver, snap, 2, pos, MODEL, POT, keep_games=True)
     pay = solver.evaluate(out.batch, POT)
-    assert np.mean(local_regret(pay, out.solution.profile) <= 1e-9) >= 0.95
+    regret = local_regret(pay, out.solution.profile)
+    assert np.mean(regret <= 1e-9) >= 0.95
+    np.testing.assert_array_equal(out.local_regret, regret)  # measured on the solved tables
 
 
 def test_global_regret_of_a_stage_is_non_negative():
     pos, snap = _swarm(10, 3)
     true = evaluate_payoffs(local_games(snap, 1, pos, MODEL, virtual_mean=False), POT, 1.0, 0.5)
-    out = solve_stage(make_solver(GameConfig(alpha_b=0.5)), snap, 1, pos, MODEL, POT)
+    out = solve_stage(make_solver("mean_field", alpha_b=0.5), snap, 1, pos, MODEL, POT)
     regret = global_regret(true, out.actions)
+    np.testing.assert_array_equal(out.global_regret, regret)
     assert np.all(regret >= 0)
     np.testing.assert_array_equal(
         stage_regret(snap, 1, pos, MODEL, POT, out.actions, 1.0, 0.5), regret
@@ -54,7 +100,8 @@ def test_global_regret_of_a_stage_is_non_negative():
 
 def test_isolated_robot_stage():
     pos = np.array([[10.0, 10.0], [190.0, 190.0]])
-    out = solve_stage(make_solver(GameConfig()), disk_snapshot(pos, 20.0), 2, pos, MODEL, POT)
+    snap = disk_snapshot(pos, 20.0)
+    out = solve_stage(make_solver("mean_field"), snap, 2, pos, MODEL, POT, keep_games=True)
     assert out.batch.n_vars == 1 and out.solution.converged.all()
     # Each isolated robot moves towards (100, 100): heading 45 degrees for robot 0.
     assert out.actions[0] == 2 and out.actions[1] == 6
@@ -67,8 +114,8 @@ def test_buckets_give_the_same_stage_as_one_batch(buckets, engine):
     # (meanfield docstring).
     pos, snap = _swarm(25, 4)
     solver = MeanFieldSolver(alpha_b=0.5, beta=20.0, engine=engine)
-    one = solve_stage(solver, snap, 2, pos, MODEL, POT)
-    many = solve_stage(solver, snap, 2, pos, MODEL, POT, buckets=buckets)
+    one = solve_stage(solver, snap, 2, pos, MODEL, POT, keep_games=True)
+    many = solve_stage(solver, snap, 2, pos, MODEL, POT, buckets=buckets, keep_games=True)
     np.testing.assert_array_equal(many.actions, one.actions)
     np.testing.assert_array_equal(many.batch.owner, np.arange(25))
     k = one.batch.n_vars
@@ -80,14 +127,14 @@ def test_buckets_give_the_same_stage_as_one_batch(buckets, engine):
 def test_buckets_must_be_a_positive_integer():
     pos, snap = _swarm(3)
     with pytest.raises(ValueError, match=r"buckets must be an integer >= 0 \(got -1\)"):
-        solve_stage(make_solver(GameConfig()), snap, 2, pos, MODEL, POT, buckets=-1)
+        solve_stage(make_solver("mean_field"), snap, 2, pos, MODEL, POT, buckets=-1)
 
 
 def test_centralised_sampled_actions_are_valid_and_reproducible():
     pos, snap = _swarm(10, 5)
-    solver = make_solver(GameConfig(solver="centralised", action_choice="sample", beta=1.0))
-    a = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=3)
-    b = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=3)
+    solver = make_solver("mean_field", action_choice="sample", beta=1.0)
+    a = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=3, centralised=True, keep_games=True)
+    b = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=3, centralised=True)
     np.testing.assert_array_equal(a.actions, b.actions)
     assert np.all(MODEL.valid(pos)[np.arange(10), a.actions])
     # At beta = 1 the marginals are spread out: sampling differs from the argmax somewhere.

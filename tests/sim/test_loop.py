@@ -5,8 +5,9 @@ import pytest
 
 from swarmgames.config import parse_config
 from swarmgames.sim import build_mission, run, run_stages
+from swarmgames.missions import disc_states
 from swarmgames.sim.controllers import GameController
-from swarmgames.sim.loop import start_positions, swarm_graph_stats
+from swarmgames.sim.loop import oscillation, swarm_graph_stats
 
 from .conftest import DiskOracle
 
@@ -98,16 +99,15 @@ class _Interrupting:
 
 def test_ctrl_c_keeps_completed_stages():
     cfg = _cfg()
-    pot, model = build_mission(cfg)
+    mission = build_mission(cfg)
     rng = np.random.default_rng(0)
-    pos = start_positions(5, (0.0, 0.0), 20.0, 30.0, rng)
+    pos = disc_states(5, (0.0, 0.0), 20.0, 30.0, rng)
     provider = DiskOracle()
     log = run_stages(
         provider=provider,
-        controller=_Interrupting(GameController(cfg, pot, model), 3),
-        potentials=pot,
-        action_model=model,
-        positions=pos,
+        controller=_Interrupting(GameController(cfg, mission), 3),
+        mission=mission,
+        states=pos,
         n_stages=10,
         period_s=1.0,
         warmup_s=2.0,
@@ -135,7 +135,7 @@ def test_positions_follow_actions():
 
 
 def test_start_positions_in_takeoff_disc():
-    pos = start_positions(500, (10.0, -5.0), 25.0, 30.0, np.random.default_rng(1))
+    pos = disc_states(500, (10.0, -5.0), 25.0, 30.0, np.random.default_rng(1))
     r = np.hypot(pos[:, 0] - 10.0, pos[:, 1] + 5.0)
     assert r.max() <= 25.0
     assert r.mean() == pytest.approx(25.0 * 2 / 3, rel=0.05)  # uniform over the disc
@@ -175,3 +175,45 @@ def test_hop_stats_reach_beyond_hello_only_tables():
     mean_h, max_h, comps, _ = swarm_graph_stats(snap)
     assert (max_h, comps) == (6, 1)
     assert mean_h == pytest.approx(8 / 3)
+
+
+def test_oscillation_counts_robots_back_where_they_were():
+    a, b = np.zeros((4, 3)), np.zeros((4, 3))
+    b[:2, 0] = 10.0  # robots 0 and 1 left ...
+    c = b.copy()
+    c[0, 0] = 0.0  # ... robot 0 came back, robot 1 flew on from there; 2 and 3 stayed
+    c[1, 0] = 20.0
+    assert oscillation(a, b, c) == pytest.approx(0.25)
+    assert oscillation(None, b, c) == 0.0
+    assert oscillation(a, a, a) == 0.0  # staying is not oscillating
+
+
+def test_two_cycle_swarm_reports_full_oscillation():
+    # Two robots that swap between two points every stage: every stage after the first has
+    # every robot back at its position of two stages before.
+    class Swap:
+        def decide(self, snap, states, rng):
+            from swarmgames.game.stage import StageSolution
+
+            n = states.shape[0]
+            nxt = states.copy()
+            nxt[:, 0] = np.where(states[:, 0] > 0, 0.0, 10.0)
+            z = np.zeros(n)
+            return StageSolution(
+                np.zeros(n, np.int64), nxt, z, z, z, z.astype(np.int64), z.astype(np.int64),
+                np.ones(n, bool),
+            )
+
+    cfg = _cfg()
+    mission = build_mission(cfg)
+    log = run_stages(
+        provider=DiskOracle(),
+        controller=Swap(),
+        mission=mission,
+        states=np.zeros((2, 3)),
+        n_stages=5,
+        period_s=1.0,
+        warmup_s=0.0,
+        rng=np.random.default_rng(0),
+    )
+    np.testing.assert_array_equal(log.swarm["oscillation"], [0.0, 1.0, 1.0, 1.0, 1.0])

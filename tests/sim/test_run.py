@@ -13,7 +13,17 @@ from swarmgames.network.topology import TopologySnapshot
 from swarmgames.runfolder import RunFolder
 from swarmgames.sim import build_mission, run
 from swarmgames.sim.controllers import GameController
-from swarmgames.sim.result import METRICS_COLUMNS, SWARM_COLUMNS, TRAJECTORY_COLUMNS
+from swarmgames.sim.result import METRICS_COLUMNS, TRAJECTORY_COLUMNS
+
+SWARM_COLUMNS = [
+    "t",
+    "mean_payoff",
+    "coverage",
+    "mean_hops",
+    "max_hops",
+    "components",
+    "oscillation",
+]
 
 from .conftest import DiskOracle
 
@@ -88,7 +98,6 @@ def test_run_folder_outputs(tmp_path):
     [
         {"solver": "mean_field"},
         {"solver": "mean_field", "virtual_mean": False},
-        {"solver": "no_virtual_mean"},
         {"solver": "best_response"},
         {"solver": "exact"},
         {"solver": "centralised"},
@@ -103,6 +112,11 @@ def test_solvers_selectable(game):
     assert len(m) == 18
     assert np.isfinite(m[["payoff", "local_regret", "global_regret"]]).all().all()
     assert (m["local_regret"] >= 0).all() and (m["global_regret"] >= 0).all()
+
+
+def test_no_virtual_mean_is_a_game_option_not_a_solver():
+    with pytest.raises(ConfigError, match="game.virtual_mean = false"):
+        _cfg({"game": {"solver": "no_virtual_mean"}})
 
 
 def test_lloyd_baseline_improves_coverage():
@@ -123,10 +137,11 @@ def test_two_robot_payoff_against_hand_computation():
     # eqs. 4-5 (paper section III), every term computed here by hand.
     paper = {"softness_db": 0.0, "move_cost_db": 0.0, "separation_cost_db": 0.0}
     cfg = _cfg({"coverage": paper})
-    pot, model = build_mission(cfg)
+    mission = build_mission(cfg)
+    roi, model = mission.roi, mission.action_model
     pos = np.array([[-100.0, 0.0, 30.0], [120.0, 40.0, 30.0]])
     snap = TopologySnapshot.from_hop_matrix(0.0, np.array([[0, 1], [1, 0]]))
-    dec = GameController(cfg, pot, model).decide(snap, pos, np.random.default_rng(0))
+    dec = GameController(cfg, mission).decide(snap, pos, np.random.default_rng(0))
     # In a two-robot clique both local games are the same game; each owner plays its own
     # entry of the shared profile.
     x0, x1 = (int(a) for a in dec.actions)
@@ -138,7 +153,7 @@ def test_two_robot_payoff_against_hand_computation():
     def unary(me, other):
         return sum(
             w * max(psi(math.dist(me, (*r, 0.0))), psi(math.dist(other, (*r, 0.0))))
-            for r, w in zip(pot.roi.points, pot.roi.weights, strict=True)
+            for r, w in zip(roi.points, roi.weights, strict=True)
         )
 
     n0 = pos[0] + model.offsets[x0]
@@ -269,19 +284,19 @@ def test_acceleration_action_set_runs():
 
 def test_size_batches_give_the_same_decision_as_one_batch():
     # Buckets only regroup independent local games: same actions, payoffs and regrets.
-    from swarmgames.scenarios.scaling import scaled_config
+    from swarmgames.config.scaling import scaled_config
 
     cfg = scaled_config(60, backend="oracle")
     one = scaled_config(60, backend="oracle", base=_cfg({"game": {"buckets": 1}}))
     many = scaled_config(60, backend="oracle", base=_cfg({"game": {"buckets": 5}}))
     assert cfg.game.buckets == 0
-    pot, model = build_mission(one)
+    mission = build_mission(one)
     pos = np.random.default_rng(0).uniform(-1000, 1000, size=(60, 2))
     pos = np.c_[pos, np.full(60, 30.0)]
     snap = DiskOracle().reset(pos)
     rng = np.random.default_rng(0)
-    a = GameController(one, pot, model).decide(snap, pos, rng)
-    b = GameController(many, pot, model).decide(snap, pos, rng)
+    a = GameController(one, mission).decide(snap, pos, rng)
+    b = GameController(many, mission).decide(snap, pos, rng)
     np.testing.assert_array_equal(a.actions, b.actions)
     np.testing.assert_allclose(a.payoff, b.payoff, rtol=1e-5)
     np.testing.assert_allclose(a.global_regret, b.global_regret, atol=1e-5)

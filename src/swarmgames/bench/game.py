@@ -262,9 +262,17 @@ def bench_stage(
         lambda s, t: signal(np.linalg.norm(s - t, axis=-1)),
     )
     stage = solve_stage(
-        MeanFieldSolver(alpha_b=alpha_b, beta=beta), snap, h, pos, model, pot, buckets=buckets
+        MeanFieldSolver(alpha_b=alpha_b, beta=beta),
+        snap,
+        h,
+        pos,
+        model,
+        pot,
+        buckets=buckets,
+        global_regret=False,
+        keep_games=True,
     )
-    batch, sol, build_s = stage.batch, stage.solution, stage.build_time_s
+    batch, sol, build_s = stage.batch, stage.solution, stage.build_s
     k = batch.mask.sum(axis=1)
     return {
         "n_robots": int(n_robots),

@@ -6,7 +6,7 @@ robots at their current positions, build and solve every robot's local game (int
 the potentials included), and move every robot. :class:`StageBench` holds the state of a
 mission between stages so that :func:`~swarmgames.bench.timing.measure` can call
 :meth:`StageBench.step` repeatedly; the scenario is a constant-density one
-(:func:`~swarmgames.scenarios.scaling.scaled_config`).
+(:func:`~swarmgames.config.scaling.scaled_config`).
 """
 
 from __future__ import annotations
@@ -17,11 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from swarmgames.config import ScenarioConfig
+from swarmgames.config import ScenarioConfig, scaled_config
 from swarmgames.network.factory import make_provider
-from swarmgames.scenarios.scaling import scaled_config
 from swarmgames.sim.controllers import GameController
-from swarmgames.sim.loop import start_positions
 from swarmgames.sim.runner import build_mission
 
 __all__ = ["StageBench", "StageParts"]
@@ -35,7 +33,6 @@ class StageParts:
     integrate_s: list[float] = field(default_factory=list)
     solve_s: list[float] = field(default_factory=list)
     decide_s: list[float] = field(default_factory=list)
-    motion_s: list[float] = field(default_factory=list)
     neighbours: list[float] = field(default_factory=list)
 
     def medians(self) -> dict[str, float]:
@@ -47,7 +44,8 @@ class StageParts:
 
 
 class StageBench:
-    """A coverage mission of ``n_robots`` UAVs, stepped one stage at a time.
+    """A mission of ``n_robots`` UAVs (default: coverage at constant density), stepped one
+    stage at a time with the run's own controller.
 
     Parameters
     ----------
@@ -57,8 +55,6 @@ class StageBench:
         regret measurement is switched off (it is a metric, not part of a stage).
     seed : int
         Seed of the start positions, the network and the game.
-    workers : int
-        Threads of the windowed integral (``coverage.workers``) of the default scenario.
     workers : int
         Threads of the windowed integral (``coverage.workers``) of the default scenario.
 
@@ -79,47 +75,39 @@ class StageBench:
     ) -> None:
         t0 = time.perf_counter()
         cfg = scaled_config(n_robots, workers=workers) if config is None else config
-        self.config = cfg.model_copy(
-            update={"sim": cfg.sim.model_copy(update={"global_regret": False})}
-        )
-        self.potentials, self.model = build_mission(self.config)
+        self.config = cfg.with_overrides({"sim.global_regret": False})
+        self.mission = build_mission(self.config)
         rng_start, rng_net, self.rng = (
             np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(3)
         )
         sw, sim = self.config.swarm, self.config.sim
-        self.positions = start_positions(
-            sw.n_robots, sw.start_center_m, sw.start_radius_m, sw.altitude_m, rng_start
-        )
+        self.states = self.mission.initial_states(sw.n_robots, rng_start)
         self.provider: Any = make_provider(self.config.network, sw.n_robots, rng_net)
-        self.provider.reset(self.positions, 0.0)
+        self.provider.reset(self.states[:, :3], 0.0)
         self.time = sim.warmup_s
-        self.snapshot = self.provider.advance(self.time, self.positions)
-        self.controller = GameController(self.config, self.potentials, self.model)
+        self.snapshot = self.provider.advance(self.time, self.states[:, :3])
+        self.controller = GameController(self.config, self.mission)
         self.parts = StageParts()
-        self._rows = np.arange(sw.n_robots)
         self.setup_s = time.perf_counter() - t0
 
     @property
     def n_robots(self) -> int:
         """N."""
-        return int(self._rows.size)
+        return int(self.states.shape[0])
 
     def step(self) -> None:
-        """One stage: network advance, every local game, motion."""
+        """One stage: network advance, every local game solved, the robots moved."""
         period = self.config.sim.control_period_s
         t0 = time.perf_counter()
         self.time += period
-        self.snapshot = self.provider.advance(self.time, self.positions[:, :3])
+        self.snapshot = self.provider.advance(self.time, self.states[:, :3])
         t1 = time.perf_counter()
-        dec = self.controller.decide(self.snapshot, self.positions, self.rng)
+        dec = self.controller.decide(self.snapshot, self.states, self.rng)
+        self.states = np.asarray(dec.next_states)
         t2 = time.perf_counter()
-        self.positions = self.model.apply(self.positions)[self._rows, dec.actions]
-        t3 = time.perf_counter()
-        n = self.n_robots
         p = self.parts
         p.advance_s.append(t1 - t0)
         p.decide_s.append(t2 - t1)
-        p.motion_s.append(t3 - t2)
-        p.integrate_s.append(float(dec.integrate_ms[0]) * n / 1e3)
-        p.solve_s.append(float(dec.solve_ms[0]) * n / 1e3)
+        p.integrate_s.append(dec.integrate_s)
+        p.solve_s.append(dec.solve_s)
         p.neighbours.append(float(np.mean(dec.neighbours)))

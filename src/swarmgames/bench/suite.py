@@ -1,7 +1,7 @@
 """The benchmark suite behind ``swarmgames bench``: how a stage's cost grows with the swarm.
 
 :func:`run_suite` times, as medians over repeats, on constant-density coverage missions
-(:func:`~swarmgames.scenarios.scaling.scaled_config`: the ROI grows with N, the 20 m grid
+(:func:`~swarmgames.config.scaling.scaled_config`: the ROI grows with N, the 20 m grid
 cell stays):
 
 * ``stage`` — a full stage (network advance + every local game, integration included +
@@ -47,7 +47,7 @@ import numpy as np
 
 from swarmgames.bench.game import bench_local_game
 from swarmgames.bench.stage import StageBench
-from swarmgames.game.stage import size_groups
+from swarmgames.game.stage import evaluate_games, plan_stage
 
 __all__ = ["QUICK_SIZES", "SIZES", "BenchResult", "run_suite"]
 
@@ -245,7 +245,7 @@ def _stage_records(n: int, repeats: int, seed: int, workers: int) -> tuple[list[
         sb.step()
         samples.append(time.perf_counter() - t0)
     med = sb.parts.medians()
-    n_actions = int(sb.model.n_actions)
+    n_actions = int(sb.mission.action_model.n_actions)
     stage = {
         "benchmark": "stage",
         "n_robots": n,
@@ -255,12 +255,11 @@ def _stage_records(n: int, repeats: int, seed: int, workers: int) -> tuple[list[
         "advance_s": med["advance_s"],
         "integrate_s": med["integrate_s"],
         "solve_s": med["solve_s"],
-        "motion_s": med["motion_s"],
         "neighbours_mean": med["neighbours"],
         "setup_s": sb.setup_s,
         "peak_mb": peak / 2**20,
         "rss_max_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
-        "grid_cells": int(sb.potentials.roi.n_cells),
+        "grid_cells": int(sb.mission.roi.n_cells) if hasattr(sb.mission, "roi") else None,
         "backend": sb.config.network.backend,
         "workers": workers,
     }
@@ -300,8 +299,21 @@ def _batched_vs_single(sb: StageBench, n_single: int, seed: int, engine: str) ->
     """Solve the stage's local games in their batches and ``n_single`` of them one by one,
     with the mean-field ``engine`` (batched: best of 3; one by one: mean, after one untimed
     solve of each kind, so that compilation is not timed)."""
-    ctrl = sb.controller
-    pays = [p for _, p, _ in ctrl._game_groups(sb.snapshot, sb.positions, True)]
+    ctrl, m = sb.controller, sb.mission
+    messages, groups = plan_stage(
+        sb.snapshot, ctrl.hops, sb.states, int(m.action_model.n_actions), ctrl.buckets
+    )
+    pays = [
+        evaluate_games(
+            ctrl.solver,
+            messages,
+            owners,
+            m.action_model,
+            m.potentials,
+            virtual_mean=ctrl.virtual_mean,
+        )[1]
+        for owners in groups
+    ]
     solver = replace(ctrl.solver, engine=engine)
     solver.solve_payoffs(pays[0].select(slice(0, 1)), sb.rng)
     for p in pays:
@@ -343,20 +355,25 @@ def _decide_batched_vs_single(sb: StageBench, n_single: int, seed: int) -> dict:
     solved — for every robot of the stage in their batches, against ``n_single`` robots each
     deciding alone (what one UAV computes on board), with the solver's engine. The messages
     (what the robots received) are computed once, outside both timings."""
-    from swarmgames.game.local import broadcast, build_local_games, gather_views
     from swarmgames.game.meanfield import resolve_engine
 
-    ctrl = sb.controller
-    vm = bool(ctrl.solver.virtual_mean)
-    messages = broadcast(sb.snapshot, sb.config.network.hops, sb.positions)
+    ctrl, m = sb.controller, sb.mission
+    messages, groups = plan_stage(
+        sb.snapshot, ctrl.hops, sb.states, int(m.action_model.n_actions), ctrl.buckets
+    )
 
     def decide(owners) -> None:
         for group in owners:
-            batch = build_local_games(gather_views(messages, group), ctrl.model, virtual_mean=vm)
-            ctrl.solver.solve_payoffs(ctrl.solver.evaluate(batch, ctrl.potentials), sb.rng)
+            _, pay, _, _ = evaluate_games(
+                ctrl.solver,
+                messages,
+                group,
+                m.action_model,
+                m.potentials,
+                virtual_mean=ctrl.virtual_mean,
+            )
+            ctrl.solver.solve_payoffs(pay, sb.rng)
 
-    sizes = np.diff(messages.indptr)
-    groups = size_groups(sizes, int(ctrl.solver.buckets), int(ctrl.model.n_actions))
     rng = np.random.default_rng(seed)
     picks = rng.choice(sb.n_robots, size=min(n_single, sb.n_robots), replace=False)
     decide([picks[:1]])

@@ -107,13 +107,15 @@ class Fig2Result:
 
 
 def _variant(base: ScenarioConfig, n: int, virtual_mean: bool, seed: int) -> ScenarioConfig:
-    data = base.model_dump(mode="json")
-    data["swarm"]["n_robots"] = n
-    data["game"]["virtual_mean"] = virtual_mean
-    data["sim"]["animation"] = False
-    data["seed"] = seed
-    data["name"] = f"fig2-n{n}-{'vm' if virtual_mean else 'novm'}"
-    return ScenarioConfig.model_validate(data)
+    return base.with_overrides(
+        {
+            "swarm.n_robots": n,
+            "game.virtual_mean": virtual_mean,
+            "sim.animation": False,
+            "seed": seed,
+            "name": f"fig2-n{n}-{'vm' if virtual_mean else 'novm'}",
+        }
+    )
 
 
 def reproduce_fig2(
@@ -152,6 +154,7 @@ def reproduce_fig2(
         Empty or non-positive ``sizes``, or an invalid ``duration_s``.
     """
     from swarmgames.sim import run
+    from swarmgames.sim.progress import ProgressBar
 
     base = ScenarioConfig() if base is None else base
     sizes = [int(n) for n in sizes]
@@ -160,14 +163,11 @@ def reproduce_fig2(
     if duration_s is not None:
         if not duration_s > 0:
             raise ConfigError(f"duration_s must be > 0 (got {duration_s})")
-        data = base.model_dump(mode="json")
-        data["sim"]["duration_s"] = float(duration_s)
-        base = ScenarioConfig.model_validate(data)
+        base = base.with_overrides({"sim.duration_s": float(duration_s)})
     jobs = [(n, vm) for n in sizes for vm in virtual_mean]
     rows, timing, summaries = [], [], []
-    bar = _Bar(progress, len(jobs))
-    with bar:
-        for n, vm in jobs:
+    with ProgressBar("Figure 2 runs", progress, total=len(jobs)) as tick:
+        for done, (n, vm) in enumerate(jobs, 1):
             res = run(_variant(base, n, vm, seed), None, progress=False)
             sw = res.to_frame()
             rows.append(
@@ -195,7 +195,8 @@ def reproduce_fig2(
                 }
             )
             summaries.append(res.summary)
-            bar.advance(f"N = {n}, virtual mean {'on' if vm else 'off'}")
+            if tick is not None:
+                tick(done)
     return Fig2Result(
         payoff=pd.concat(rows, ignore_index=True),
         timing=pd.DataFrame(timing),
@@ -203,24 +204,3 @@ def reproduce_fig2(
         config=base,
     )
 
-
-class _Bar:
-    def __init__(self, enabled: bool, total: int) -> None:
-        self.enabled, self.total, self.p, self.task = enabled, total, None, None
-
-    def __enter__(self):
-        if self.enabled:
-            from rich.progress import Progress
-
-            self.p = Progress(transient=True)
-            self.p.__enter__()
-            self.task = self.p.add_task("Figure 2 runs", total=self.total)
-        return self
-
-    def advance(self, what: str) -> None:
-        if self.p is not None:
-            self.p.update(self.task, advance=1, description=f"Figure 2: done {what}")
-
-    def __exit__(self, *exc) -> None:
-        if self.p is not None:
-            self.p.__exit__(*exc)

@@ -7,15 +7,15 @@ Every solver is a configured, immutable object with
 
 Solvers (``name``):
 
-``mean_field``        Algorithm 1 (:mod:`swarmgames.game.meanfield`), on virtual-mean games.
-``no_virtual_mean``   the same on games with the reported states unchanged (paper's comparison).
+``mean_field``        Algorithm 1 (:mod:`swarmgames.game.meanfield`).
 ``exact``             the M-maximising profile by enumeration (small neighbourhoods).
 ``best_response``     best-response dynamics from the unary argmax.
-``centralised``       mean-field over the whole swarm as one game (see ``stage.solve_stage``).
 ``random``            a uniformly random valid action.
 
-:func:`swarmgames.game.stage.solve_stage` is what a simulation loop calls once per control
-period: it builds the games from the routing tables and returns one action per robot.
+A solver only solves the games it is given. How the games of a stage are built (with or
+without virtual means, as N local games or one centralised game) is a parameter of the stage
+pipeline, :func:`swarmgames.game.stage.solve_stage`, which a simulation loop calls once per
+control period.
 
 References
 ----------
@@ -49,7 +49,8 @@ __all__ = [
     "sample_actions",
 ]
 
-SOLVERS = ("mean_field", "no_virtual_mean", "exact", "best_response", "centralised", "random")
+#: Registry names of the solvers (:func:`make_solver`).
+SOLVERS = ("mean_field", "exact", "best_response", "random")
 
 
 def normalise_rng(seed: int | np.random.Generator | None) -> np.random.Generator:
@@ -211,15 +212,9 @@ class Solver(Protocol):
     ----------
     name : str
         Registry name (one of :data:`SOLVERS`).
-    virtual_mean : bool
-        Whether stage solving builds the games with virtual means (eq. 3).
-    buckets : int
-        Default number of size buckets of stage solving (0 = automatic).
     """
 
     name: str
-    virtual_mean: bool
-    buckets: int
 
     def evaluate(self, batch: LocalGameBatch, potentials: Potentials) -> GamePayoffs:
         """Weighted payoff tables of ``batch``."""
@@ -246,10 +241,8 @@ class _Base:
     alpha_a: float = 1.0
     alpha_b: float = 0.001
     dtype: str = "float64"
-    buckets: int = 0
 
     name = "base"
-    virtual_mean = True
 
     def evaluate(self, batch: LocalGameBatch, potentials: Potentials) -> GamePayoffs:
         """The weighted payoff tables of ``batch`` under this solver's α_a, α_b and dtype."""
@@ -285,8 +278,6 @@ class MeanFieldSolver(_Base):
         Weights of eq. 1 (paper: 1, 0.001).
     dtype : {"float64", "float32"}
         Precision of the payoff tables and marginals.
-    buckets : int
-        Default size-bucket count of :func:`~swarmgames.game.stage.solve_stage` (0 = automatic).
     beta : float
         Inverse temperature, > 0.
     delta : float
@@ -295,10 +286,6 @@ class MeanFieldSolver(_Base):
         Maximum sweeps, >= 1.
     action_choice : {"argmax", "sample"}
         Owner's action: argmax of its marginal (ties to the lowest index) or a draw from it.
-    virtual_mean : bool
-        Whether ``solve_stage`` builds the games with virtual means (eq. 3).
-    centralised : bool
-        Whether ``solve_stage`` solves the swarm as one game (centralised baseline).
     engine : {"auto", "compiled", "blas", "sequential"}
         See :func:`~swarmgames.game.meanfield.mean_field`.
     """
@@ -307,8 +294,6 @@ class MeanFieldSolver(_Base):
     delta: float = 1e-6
     max_iter: int = 200
     action_choice: Literal["argmax", "sample"] = "argmax"
-    virtual_mean: bool = True  # type: ignore[misc]
-    centralised: bool = False
     engine: Literal["auto", "compiled", "blas", "sequential"] = "auto"
 
     def __post_init__(self) -> None:
@@ -322,12 +307,7 @@ class MeanFieldSolver(_Base):
                 f"engine must be one of {', '.join(map(repr, ENGINES))} (got {self.engine!r})"
             )
 
-    @property
-    def name(self) -> str:  # type: ignore[override]
-        """Registry name of this configuration."""
-        if self.centralised:
-            return "centralised"
-        return "mean_field" if self.virtual_mean else "no_virtual_mean"
+    name = "mean_field"
 
     def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
         """Mean-field marginals of every game, then each owner's action."""
@@ -401,42 +381,48 @@ class RandomSolver(_Base):
         )
 
 
-def make_solver(config) -> Solver:
-    """The solver a :class:`~swarmgames.config.GameConfig` names, configured from it.
+_SOLVER_CLASSES = {
+    "mean_field": MeanFieldSolver,
+    "exact": ExactSolver,
+    "best_response": BestResponseSolver,
+    "random": RandomSolver,
+}
+
+
+def make_solver(name: str, **params) -> Solver:
+    """The solver registered as ``name``, configured with ``params``.
 
     Parameters
     ----------
-    config : GameConfig
-        Uses ``solver``, ``alpha_a``, ``alpha_b``, ``beta``, ``delta``, ``max_iter``,
-        ``action_choice``, ``virtual_mean``, ``precision``, ``exact_max_profiles`` and
-        ``buckets``.
+    name : {"mean_field", "exact", "best_response", "random"}
+    **params
+        Fields of the solver's class: ``alpha_a``, ``alpha_b``, ``dtype`` for every solver;
+        ``beta``, ``delta``, ``max_iter``, ``action_choice``, ``engine`` for mean-field;
+        ``max_profiles`` for exact; ``max_iter`` for best response.
 
     Returns
     -------
     MeanFieldSolver, ExactSolver, BestResponseSolver or RandomSolver
+
+    Raises
+    ------
+    ValueError
+        An unknown name, or a parameter the solver does not take.
+
+    Examples
+    --------
+    >>> make_solver("mean_field", beta=20.0).beta
+    20.0
     """
-    name = config.solver
-    common = {
-        "alpha_a": config.alpha_a,
-        "alpha_b": config.alpha_b,
-        "dtype": getattr(config, "precision", "float64"),
-        "buckets": getattr(config, "buckets", 0),
-    }
-    if name in ("mean_field", "no_virtual_mean", "centralised"):
-        return MeanFieldSolver(
-            **common,
-            beta=config.beta,
-            delta=config.delta,
-            max_iter=config.max_iter,
-            action_choice=config.action_choice,
-            virtual_mean=bool(config.virtual_mean) and name == "mean_field",
-            centralised=name == "centralised",
-            engine=getattr(config, "engine", "auto"),
+    try:
+        cls = _SOLVER_CLASSES[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"solver must be one of {', '.join(SOLVERS)} (got {name!r})") from None
+    fields = set(cls.__dataclass_fields__)
+    unknown = sorted(set(params) - fields)
+    if unknown:
+        raise ValueError(
+            f"solver {name!r} takes no parameter {', '.join(map(repr, unknown))} "
+            f"(it takes {', '.join(sorted(fields))})"
         )
-    if name == "exact":
-        return ExactSolver(**common, max_profiles=getattr(config, "exact_max_profiles", 1_000_000))
-    if name == "best_response":
-        return BestResponseSolver(**common, max_iter=config.max_iter)
-    if name == "random":
-        return RandomSolver(**common)
-    raise ValueError(f"solver must be one of {', '.join(SOLVERS)} (got {name!r})")
+    return cls(**params)

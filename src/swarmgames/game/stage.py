@@ -1,9 +1,22 @@
-"""One stage of the graphical game: every robot's action for one control period.
+"""One stage of the graphical game, built, evaluated, solved and measured in one place.
 
-:func:`solve_stage` chains the layers a simulation loop needs once per control period:
-routing tables → local games (:mod:`swarmgames.game.local`, with or without virtual means) →
-potentials → the configured solver (:mod:`swarmgames.game.solvers`) → one action per robot.
-:func:`stage_regret` measures the result against the stage game (global regret).
+:func:`solve_stage` is the stage pipeline that the simulation's controllers, the benchmarks
+and the public API all call once per control period:
+
+1. routing tables → every robot's inbox (:func:`~swarmgames.game.local.broadcast`), robots
+   split into batches of similar neighbourhood size (:func:`size_groups`);
+2. per batch: the local games (with or without virtual means, eq. 3), their payoff tables
+   (the potentials, eq. 1) and their solution (the configured solver, Algorithm 1);
+3. the measurements from the tables already computed: every robot's payoff :math:`M_i` and
+   local regret at the profile it settled on, and its global (stage-game) regret at the
+   realised joint action. The global regret needs robot i's *true* local game (actual states,
+   no virtual means): it is the solved game itself whenever no member of N_i was replaced by
+   a virtual mean, and only the other games are built and evaluated a second time.
+
+``centralised=True`` solves the swarm as one game instead (the centralised baseline) and
+measures every robot on its true local game. :func:`measure_stage` measures given actions the
+same way (for controllers that are not games, such as the Lloyd baseline);
+:func:`stage_regret` measures a joint action against any snapshot taken as the truth.
 
 References
 ----------
@@ -20,46 +33,88 @@ import numpy as np
 
 from swarmgames.game.actions import ActionModel
 from swarmgames.game.batch import LocalGameBatch, _freeze_arrays
-from swarmgames.game.equilibrium import global_regret
+from swarmgames.game.equilibrium import global_regret, local_regret, profile_payoff
 from swarmgames.game.local import (
+    Messages,
     broadcast,
     build_local_games,
     centralised_game,
     gather_views,
     local_games,
 )
-from swarmgames.game.potentials import Potentials, evaluate_payoffs
+from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
 from swarmgames.game.solvers import GameSolution, Solver, normalise_rng, sample_actions
 from swarmgames.network.topology import TopologySnapshot
 
-__all__ = ["StageSolution", "size_groups", "solve_stage", "stage_regret"]
+__all__ = [
+    "StageSolution",
+    "evaluate_games",
+    "measure_stage",
+    "plan_stage",
+    "size_groups",
+    "solve_stage",
+    "stage_regret",
+]
 
 
 @dataclass(frozen=True, eq=False)
 class StageSolution:
-    """One stage: every robot's action, plus the games and solution behind it.
+    """One stage: every robot's action and what the run measures of it.
 
     Parameters
     ----------
-    actions : ndarray of int, shape (N,)
+    actions : ndarray of int64, shape (N,)
         Action index of every robot.
     next_states : ndarray, shape (N, D)
-        Every robot's state after its action (from the action model, actual states).
-    batch : LocalGameBatch
-        The games solved (B = N local games, or one swarm-wide game for ``centralised``).
-    solution : GameSolution
-    build_time_s : float
-        Wall time of building the games, seconds.
+        Every robot's state after its action (from the action model).
+    payoff : ndarray, shape (N,)
+        :math:`M_i` (eq. 1) of robot i's local game at the profile robot i settled on (the
+        solver's profile of its own game); for centralised or given actions, robot i's true
+        local game at the realised actions.
+    local_regret : ndarray, shape (N,)
+        Largest gain of any variable of that game deviating alone from that profile
+        (0: a pure Nash equilibrium of the local game).
+    global_regret : ndarray, shape (N,)
+        What robot i could gain by deviating alone in its true local game, every other robot
+        at its realised action; NaN when not measured.
+    neighbours : ndarray of int64, shape (N,)
+        :math:`|N_i| - 1`.
+    iterations : ndarray of int64, shape (N,)
+        Solver iterations of robot i's game (of the swarm's game when centralised).
+    converged : ndarray of bool, shape (N,)
+    integrate_s, solve_s, build_s : float
+        Wall time of evaluating the potentials, of solving and of building the games of the
+        solve, seconds (measurement-only work is not counted).
+    n_games : int
+        Number of games solved (N, or 1 when centralised).
+    batch : LocalGameBatch or None
+        The games solved, in robot order (only with ``keep_games=True``).
+    solution : GameSolution or None
+        Their solution (only with ``keep_games=True``).
     """
 
     actions: np.ndarray
     next_states: np.ndarray
-    batch: LocalGameBatch
-    solution: GameSolution
-    build_time_s: float = field(default=0.0)
+    payoff: np.ndarray
+    local_regret: np.ndarray
+    global_regret: np.ndarray
+    neighbours: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+    integrate_s: float = 0.0
+    solve_s: float = 0.0
+    build_s: float = 0.0
+    n_games: int = 0
+    batch: LocalGameBatch | None = field(default=None, repr=False)
+    solution: GameSolution | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         _freeze_arrays(self)
+
+    @property
+    def n_robots(self) -> int:
+        """N."""
+        return int(self.actions.size)
 
 
 #: Largest pairwise table one batch of a stage may hold, entries (B K² A²): 200 MB in float64.
@@ -97,6 +152,92 @@ def size_groups(
     return out
 
 
+def _check_buckets(buckets) -> int:
+    if isinstance(buckets, bool) or not isinstance(buckets, (int, np.integer)) or buckets < 0:
+        raise ValueError(f"buckets must be an integer >= 0 (got {buckets})")
+    return int(buckets)
+
+
+class _Record:
+    """The per-robot arrays of a stage, filled game batch by game batch."""
+
+    def __init__(self, n: int) -> None:
+        self.actions = np.zeros(n, dtype=np.int64)
+        self.payoff = np.zeros(n)
+        self.local_regret = np.zeros(n)
+        self.global_regret = np.full(n, np.nan)
+        self.neighbours = np.zeros(n, dtype=np.int64)
+        self.iterations = np.zeros(n, dtype=np.int64)
+        self.converged = np.zeros(n, dtype=bool)
+
+    def measure(self, owners, batch, pay, profile) -> None:
+        """Payoff, local regret and neighbour count of the games of ``owners``."""
+        self.payoff[owners] = profile_payoff(pay, profile)
+        self.local_regret[owners] = local_regret(pay, profile)
+        self.neighbours[owners] = np.asarray(batch.mask).sum(axis=1) - 1
+
+    def solution(self, states, action_model, **extra) -> StageSolution:
+        nxt = np.asarray(action_model.apply(states))[np.arange(states.shape[0]), self.actions]
+        return StageSolution(
+            actions=self.actions,
+            next_states=nxt,
+            payoff=self.payoff,
+            local_regret=self.local_regret,
+            global_regret=self.global_regret,
+            neighbours=self.neighbours,
+            iterations=self.iterations,
+            converged=self.converged,
+            **extra,
+        )
+
+
+def plan_stage(
+    snapshot: TopologySnapshot, h: int, states: np.ndarray, n_actions: int, buckets: int = 0
+) -> tuple[Messages, list[np.ndarray]]:
+    """The first step of a stage: every robot's message (:func:`~swarmgames.game.local.
+    broadcast`) and the robots split into batches of similar neighbourhood size
+    (:func:`size_groups`)."""
+    messages = broadcast(snapshot, h, states)
+    return messages, size_groups(np.diff(messages.indptr), _check_buckets(buckets), n_actions)
+
+
+def evaluate_games(
+    solver: Solver,
+    messages: Messages,
+    owners,
+    action_model: ActionModel,
+    potentials: Potentials,
+    *,
+    virtual_mean: bool,
+) -> tuple[LocalGameBatch, GamePayoffs, float, float]:
+    """The second step, for one batch: the local games of ``owners`` built from their inboxes
+    and their payoff tables under ``solver``'s weights; with the build and the evaluation
+    (payoff integration) times, seconds."""
+    t0 = time.perf_counter()
+    batch = build_local_games(
+        gather_views(messages, owners), action_model, virtual_mean=virtual_mean
+    )
+    t1 = time.perf_counter()
+    pay = solver.evaluate(batch, potentials)
+    return batch, pay, t1 - t0, time.perf_counter() - t1
+
+
+def _true_measures(rec: _Record, solver, messages, groups, action_model, potentials) -> float:
+    """Payoff, local and global regret of every robot's true local game (actual states, no
+    virtual means) at the realised actions ``rec.actions``; returns the evaluation time."""
+    integrate_s = 0.0
+    for owners in groups:
+        batch, pay, _, t_int = evaluate_games(
+            solver, messages, owners, action_model, potentials, virtual_mean=False
+        )
+        members = np.asarray(pay.members)
+        profile = np.where(pay.mask, rec.actions[np.maximum(members, 0)], 0)
+        rec.measure(owners, batch, pay, profile)
+        rec.global_regret[owners] = global_regret(pay, rec.actions)
+        integrate_s += t_int
+    return integrate_s
+
+
 def solve_stage(
     solver: Solver,
     snapshot: TopologySnapshot,
@@ -106,18 +247,19 @@ def solve_stage(
     potentials: Potentials,
     rng: int | np.random.Generator | None = None,
     *,
-    buckets: int | None = None,
+    virtual_mean: bool = True,
+    centralised: bool = False,
+    buckets: int = 0,
+    global_regret: bool = True,
+    keep_games: bool = False,
 ) -> StageSolution:
-    """Decide every robot's action for one control period.
-
-    Builds each robot's local game from the routing tables (:func:`local_games`, with the
-    solver's ``virtual_mean``), or the swarm-wide game for the centralised solver, solves them
-    and returns one action per robot.
+    """Decide and measure every robot's action for one control period.
 
     Parameters
     ----------
-    solver : a solver from :func:`make_solver`
+    solver : a solver from :func:`~swarmgames.game.solvers.make_solver`
     snapshot : TopologySnapshot
+        Every robot's routing table; robot i's game holds N_i(h) from its own table.
     h : int
         Neighbourhood radius in hops (paper: 2).
     states : ndarray, shape (N, D)
@@ -125,61 +267,173 @@ def solve_stage(
     potentials : Potentials
     rng : int, Generator or None
         Randomness of ``action_choice="sample"`` and of the random solver.
-    buckets : int, optional
-        Solve the local games in this many batches of similar size |N_i| (robots sorted by
-        |N_i|, equal counts; see :func:`size_groups`, which also splits a batch whose
-        pairwise table would exceed ``MAX_PAIR_ELEMS``). 0 = automatic: one batch per 128
-        robots, at most 8. Default:
-        the solver's ``buckets`` (``GameConfig.buckets``). A batch is padded to its largest
-        game and the pairwise table grows with K², so buckets save work and memory when
-        neighbourhood sizes are uneven.
-        Results do not depend on it, except through the draws of ``rng``, and up to rounding
-        with ``engine="blas"`` (see :mod:`swarmgames.game.meanfield`).
+    virtual_mean : bool, default True
+        Replace every member j with N_j − N_i ≠ ∅ by its virtual mean (eq. 3); False keeps
+        the reported states (the paper's comparison).
+    centralised : bool, default False
+        Solve the swarm as one game over every robot (pairwise terms between robots within h
+        hops of each other) instead of N local games; for small swarms (N² A² table).
+    buckets : int, default 0
+        Solve the local games in this many batches of similar size |N_i| (see
+        :func:`size_groups`, which also splits a batch whose pairwise table would exceed
+        ``MAX_PAIR_ELEMS``); 0 = automatic, one batch per 128 robots, at most 8. A batch is
+        padded to its largest game and the pairwise table grows with K², so buckets save
+        work and memory when neighbourhood sizes are uneven. Results do not depend on it,
+        except through the draws of ``rng`` and up to rounding with ``engine="blas"``.
+    global_regret : bool, default True
+        Measure every robot's global regret (NaN otherwise).
+    keep_games : bool, default False
+        Return the games and their solution (``batch``, ``solution``) in robot order.
 
     Returns
     -------
     StageSolution
-        ``batch`` and ``solution`` hold the games in robot order (padded to the widest game).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swarmgames.game import DisplacementActions, FunctionPotentials, MeanFieldSolver
+    >>> from swarmgames.network import TopologySnapshot
+    >>> snap = TopologySnapshot.from_hop_matrix(0.0, np.array([[0, 1], [1, 0]]))
+    >>> goal = FunctionPotentials(lambda s: -np.linalg.norm(s - [5.0, 0.0], axis=-1))
+    >>> stage = solve_stage(MeanFieldSolver(), snap, 1, np.zeros((2, 2)),
+    ...                     DisplacementActions.headings(1.0, 4), goal)
+    >>> stage.actions.tolist(), stage.local_regret.tolist()
+    ([1, 1], [0.0, 0.0])
     """
-    if buckets is None:
-        buckets = getattr(solver, "buckets", 0)
-    if isinstance(buckets, bool) or not isinstance(buckets, (int, np.integer)) or buckets < 0:
-        raise ValueError(f"buckets must be an integer >= 0 (got {buckets})")
     gen = normalise_rng(rng)
-    t0 = time.perf_counter()
     states = np.asarray(states, dtype=float)
-    centralised = getattr(solver, "centralised", False)
+    n = states.shape[0] if states.ndim == 2 else 0
     if centralised:
-        batch = centralised_game(snapshot, h, states, action_model)
-        t_build = time.perf_counter() - t0
-        sol = solver.solve(batch, potentials, gen)
-        actions = sol.profile[0].copy()
-        if getattr(solver, "action_choice", "argmax") == "sample":
-            actions = sample_actions(sol.marginals[0], batch.action_mask[0], actions, gen)
-    else:
-        messages = broadcast(snapshot, h, states)
-        sizes = np.diff(messages.indptr)
-        groups = size_groups(sizes, int(buckets), int(action_model.n_actions))
-        batches, sols = [], []
-        t_build = time.perf_counter() - t0
-        for owners in groups:
-            t1 = time.perf_counter()
-            part = build_local_games(
-                gather_views(messages, owners),
-                action_model,
-                virtual_mean=bool(solver.virtual_mean),
+        return _solve_centralised(
+            solver, snapshot, h, states, action_model, potentials, gen, buckets, keep_games
+        )
+    t0 = time.perf_counter()
+    messages, groups = plan_stage(snapshot, h, states, int(action_model.n_actions), buckets)
+    build_s = time.perf_counter() - t0
+    rec = _Record(n)
+    integrate_s = solve_s = 0.0
+    batches, sols = [], []
+    for owners in groups:
+        batch, pay, t_build, t_int = evaluate_games(
+            solver, messages, owners, action_model, potentials, virtual_mean=virtual_mean
+        )
+        sol = solver.solve_payoffs(pay, gen)
+        rec.actions[owners] = sol.actions
+        rec.iterations[owners] = sol.iterations
+        rec.converged[owners] = sol.converged
+        # The robot's own view: its local game at the profile it settled on.
+        rec.measure(owners, batch, pay, sol.profile)
+        build_s += t_build
+        integrate_s += t_int
+        solve_s += sol.solve_time_s
+        if global_regret:
+            batches.append((owners, batch, pay))
+        if keep_games:
+            sols.append((batch, sol))
+    if global_regret:
+        _global_regret(rec, solver, messages, batches, action_model, potentials)
+    extra = {}
+    if keep_games:
+        extra = _in_robot_order(groups, sols)
+    return rec.solution(
+        states,
+        action_model,
+        integrate_s=integrate_s,
+        solve_s=solve_s,
+        build_s=build_s,
+        n_games=n,
+        **extra,
+    )
+
+
+def _global_regret(rec: _Record, solver, messages, batches, action_model, potentials) -> None:
+    """Global regret from the solved games' tables; only the games that held a virtual mean
+    are rebuilt with actual states and evaluated again."""
+    for owners, batch, pay in batches:
+        rec.global_regret[owners] = global_regret(pay, rec.actions)
+        virtual = np.asarray(batch.is_virtual).any(axis=1)
+        if virtual.any():
+            redo = owners[virtual]
+            _, true_pay, _, _ = evaluate_games(
+                solver, messages, redo, action_model, potentials, virtual_mean=False
             )
-            t_build += time.perf_counter() - t1
-            batches.append(part)
-            sols.append(solver.solve(part, potentials, gen))
+            rec.global_regret[redo] = global_regret(true_pay, rec.actions)
+
+
+def _in_robot_order(groups, sols) -> dict:
+    """The games and solutions of every group, concatenated in robot order."""
+    batches = [b for b, _ in sols]
+    solutions = [s for _, s in sols]
+    batch = batches[0] if len(batches) == 1 else LocalGameBatch.concat(batches)
+    sol = solutions[0] if len(solutions) == 1 else GameSolution.concat(solutions)
+    if len(groups) > 1:
         inverse = np.argsort(np.concatenate(groups))
-        batch = batches[0] if len(batches) == 1 else LocalGameBatch.concat(batches)
-        sol = sols[0] if len(sols) == 1 else GameSolution.concat(sols)
-        if len(groups) > 1:
-            batch, sol = batch.select(inverse), sol.select(inverse)
-        actions = sol.actions
-    nxt = np.asarray(action_model.apply(states))[np.arange(states.shape[0]), actions]
-    return StageSolution(actions, nxt, batch, sol, t_build)
+        batch, sol = batch.select(inverse), sol.select(inverse)
+    return {"batch": batch, "solution": sol}
+
+
+def _solve_centralised(
+    solver, snapshot, h, states, action_model, potentials, gen, buckets, keep_games
+) -> StageSolution:
+    """The swarm as one game; every robot measured on its true local game."""
+    n = states.shape[0]
+    t0 = time.perf_counter()
+    batch = centralised_game(snapshot, h, states, action_model)
+    t1 = time.perf_counter()
+    pay = solver.evaluate(batch, potentials)
+    t2 = time.perf_counter()
+    sol = solver.solve_payoffs(pay, gen)
+    actions = np.asarray(sol.profile[0], dtype=np.int64)
+    if getattr(solver, "action_choice", "argmax") == "sample":
+        actions = sample_actions(sol.marginals[0], batch.action_mask[0], actions, gen)
+    rec = _Record(n)
+    rec.actions[:] = actions
+    messages, groups = plan_stage(snapshot, h, states, int(action_model.n_actions), buckets)
+    _true_measures(rec, solver, messages, groups, action_model, potentials)
+    rec.iterations[:] = int(sol.iterations[0])
+    rec.converged[:] = bool(sol.converged[0])
+    extra = {"batch": batch, "solution": sol} if keep_games else {}
+    return rec.solution(
+        states,
+        action_model,
+        integrate_s=t2 - t1,
+        solve_s=sol.solve_time_s,
+        build_s=t1 - t0,
+        n_games=1,
+        **extra,
+    )
+
+
+def measure_stage(
+    solver: Solver,
+    snapshot: TopologySnapshot,
+    h: int,
+    states: np.ndarray,
+    action_model: ActionModel,
+    potentials: Potentials,
+    actions,
+    *,
+    buckets: int = 0,
+) -> StageSolution:
+    """Measure given actions as :func:`solve_stage` measures its own: every robot's payoff,
+    local and global regret in its true local game (actual states, no virtual means) at the
+    realised joint action.
+
+    For controllers that are not games (the Lloyd baseline). ``iterations`` and ``converged``
+    are 0 and false, ``solve_s`` is 0 and ``integrate_s`` is the evaluation of the true games;
+    ``n_games`` is N.
+    """
+    states = np.asarray(states, dtype=float)
+    actions = np.asarray(actions, dtype=np.int64)
+    n = states.shape[0]
+    if actions.shape != (n,):
+        raise ValueError(f"actions must have shape ({n},) (got {actions.shape})")
+    messages, groups = plan_stage(snapshot, h, states, int(action_model.n_actions), buckets)
+    rec = _Record(n)
+    rec.actions[:] = actions
+    integrate_s = _true_measures(rec, solver, messages, groups, action_model, potentials)
+    return rec.solution(states, action_model, integrate_s=integrate_s, n_games=n)
 
 
 def stage_regret(
@@ -207,3 +461,4 @@ def stage_regret(
     batch = local_games(snapshot, h, states, action_model, virtual_mean=False)
     payoffs = evaluate_payoffs(batch, potentials, alpha_a, alpha_b)
     return global_regret(payoffs, joint_actions)
+

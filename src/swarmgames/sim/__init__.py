@@ -1,22 +1,24 @@
 """Simulation layer: the stage loop, controllers, run results and their files."""
 
-from swarmgames.sim.controllers import Decision, GameController, LloydController
-from swarmgames.sim.lloyd import lloyd_actions, voronoi_centroids
-from swarmgames.sim.loop import StageLog, run_stages, start_positions
+from swarmgames.sim.controllers import (
+    GameController,
+    LloydController,
+    make_controller,
+    solver_from_config,
+)
+from swarmgames.sim.loop import StageLog, oscillation, run_stages
 from swarmgames.sim.result import RunResult
-from swarmgames.sim.runner import build_mission, check_config, run
+from swarmgames.sim.runner import build_mission, run
 
 __all__ = [
-    "Decision",
     "GameController",
     "LloydController",
     "RunResult",
     "StageLog",
     "build_mission",
-    "check_config",
-    "lloyd_actions",
+    "make_controller",
+    "oscillation",
     "run",
     "run_stages",
-    "start_positions",
-    "voronoi_centroids",
+    "solver_from_config",
 ]

@@ -1,4 +1,5 @@
-"""GIF animation of a run: the swarm over the ROI with its links and one neighbourhood.
+"""GIF animation of a run: the swarm over the mission's background with its links and one
+neighbourhood.
 
 Frames are drawn with matplotlib's Agg canvas and assembled with Pillow in memory, so the GIF
 is written to the run folder atomically in one piece.
@@ -12,7 +13,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from swarmgames.sim.plots import draw_roi
+from swarmgames.sim.plots import draw_background
 
 __all__ = ["render_gif"]
 
@@ -31,15 +32,18 @@ def render_gif(result, max_frames: int = 60, fps: int = 8) -> bytes:
         raise ValueError("cannot animate a run without stages")
     idx = np.unique(np.linspace(0, s - 1, min(max_frames, s)).round().astype(int))
     pad = 50.0
-    lo = np.minimum(xy.reshape(-1, 2).min(axis=0), np.array(result.roi.bounding_box()[::2]))
-    hi = np.maximum(xy.reshape(-1, 2).max(axis=0), np.array(result.roi.bounding_box()[1::2]))
+    lo, hi = xy.reshape(-1, 2).min(axis=0), xy.reshape(-1, 2).max(axis=0)
+    extent = getattr(result.mission, "extent", None)
+    if extent is not None:  # keep the mission's area in view too
+        box = np.asarray(extent(), dtype=float)
+        lo, hi = np.minimum(lo, box[::2]), np.maximum(hi, box[1::2])
     fig = Figure(figsize=(5, 5), dpi=80)
     canvas = FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     frames = []
     for k in idx:
         ax.clear()
-        draw_roi(ax, result.roi)
+        draw_background(ax, result.mission)
         edges = result.links[k]
         for a, b in edges:
             ax.plot(*xy[k, [a, b]].T, color="0.5", lw=0.7)

@@ -5,9 +5,12 @@ One stage at time :math:`t_k = t_{warm} + k\\,\\Delta t`:
 1. the network provider is advanced to :math:`t_k` with the robots held at the positions they
    reached (OLSR keeps running between stages, so its tables lag the geometry as in ns-3);
 2. every robot reads its neighbourhood :math:`N_i(h)` from its own routing table;
-3. the controller decides every robot's action (all local games built and solved as one batch,
-   or the Lloyd baseline);
-4. the actions are applied; the new positions hold until the next stage.
+3. the controller decides every robot's action (the stage pipeline of
+   :mod:`swarmgames.game.stage`: all local games built, evaluated, solved and measured in
+   batches; or the Lloyd baseline);
+4. the mission measures the stage (:meth:`~swarmgames.missions.protocol.Mission.swarm_metrics`)
+   and the loop measures the network and the oscillation (:func:`oscillation`);
+5. the actions are applied; the new states hold until the next stage.
 
 Ctrl-C (``KeyboardInterrupt``) between or during stages stops the loop cleanly: the completed
 stages are kept and returned with ``interrupted = True``.
@@ -30,18 +33,7 @@ from scipy.sparse import csgraph, csr_array
 
 from swarmgames.network.topology import TopologySnapshot
 
-__all__ = ["StageLog", "run_stages", "start_positions", "swarm_graph_stats"]
-
-
-def start_positions(n: int, center, radius: float, altitude: float, rng) -> np.ndarray:
-    """``n`` positions drawn uniformly over the take-off disc at ``altitude``, shape (n, 3)."""
-    r = radius * np.sqrt(rng.random(n))
-    theta = 2.0 * np.pi * rng.random(n)
-    out = np.empty((n, 3))
-    out[:, 0] = center[0] + r * np.cos(theta)
-    out[:, 1] = center[1] + r * np.sin(theta)
-    out[:, 2] = altitude
-    return out
+__all__ = ["StageLog", "oscillation", "run_stages", "swarm_graph_stats"]
 
 
 #: Above this many robots the hop statistics come from the routing-table entries alone
@@ -81,18 +73,39 @@ def swarm_graph_stats(snapshot: TopologySnapshot) -> tuple[float, int, int, np.n
     return mean_h, max_h, n_comp, edges.astype(np.int32)
 
 
+#: Position change below which a robot is where it was, metres.
+SAME_PLACE_M = 1e-6
+
+
+def oscillation(before: np.ndarray | None, now: np.ndarray, after: np.ndarray) -> float:
+    """Share of robots back, after a stage, at the position they held two stages before
+    although they had left it: :math:`|p_{k+1} - p_{k-1}| \\le \\epsilon < |p_k - p_{k-1}|`.
+
+    A myopic stage game on a link-keeping mission can cycle: robots alternate between two
+    positions for ever. This share is 0 for a swarm that settles or moves on, 1 when every
+    robot cycles with period 2. Positions are the first three state columns;
+    :math:`\\epsilon` is :data:`SAME_PLACE_M`. 0 at the first stage (``before is None``).
+    """
+    if before is None or now.shape[0] == 0:
+        return 0.0
+    left = np.linalg.norm(now[:, :3] - before[:, :3], axis=1) > SAME_PLACE_M
+    back = np.linalg.norm(after[:, :3] - before[:, :3], axis=1) <= SAME_PLACE_M
+    return float(np.mean(left & back))
+
+
 @dataclass
 class StageLog:
     """Everything recorded by the loop; arrays are stacked over the S completed stages.
 
     Attributes
     ----------
-    times : (S,) stage times, s.  positions : (S + 1, N, 3) positions at each stage and after
-    the last one, m.  actions : (S, N).  per_robot : dict of (S, N) arrays (payoff,
-    neighbours, local_regret, global_regret, iterations, converged, solve_ms, integrate_ms).
-    swarm : dict of (S,) arrays (mean_payoff, coverage, mean_hops, max_hops, components).
-    links : list of (E, 2) 1-hop edges per stage.  interrupted : whether Ctrl-C stopped the
-    loop.  wall_s : loop time, s.  stage_s : (S,) wall time of each stage, s.
+    times : (S,) stage times, s.  positions : (S + 1, N, D) states at each stage and after
+    the last one.  actions : (S, N).  per_robot : dict of (S, N) arrays (payoff, neighbours,
+    local_regret, global_regret, iterations, converged, solve_ms, integrate_ms, then the
+    mission's robot metrics).  swarm : dict of (S,) arrays (mean_payoff, the mission's
+    metrics, mean_hops, max_hops, components, oscillation).  links : list of (E, 2) 1-hop
+    edges per stage.  interrupted : whether Ctrl-C stopped the loop.  wall_s : loop time, s.
+    stage_s : (S,) wall time of each stage, s.
     """
 
     times: np.ndarray
@@ -108,13 +121,27 @@ class StageLog:
     warmup_s: float = 0.0
 
 
+def _robot_columns(stage, n: int) -> dict[str, np.ndarray]:
+    """The per-robot columns of ``metrics.csv`` from a :class:`StageSolution`; times are
+    amortised over the robots."""
+    return {
+        "payoff": stage.payoff,
+        "neighbours": stage.neighbours,
+        "local_regret": stage.local_regret,
+        "global_regret": stage.global_regret,
+        "iterations": stage.iterations,
+        "converged": stage.converged,
+        "solve_ms": np.full(n, 1e3 * stage.solve_s / max(1, n)),
+        "integrate_ms": np.full(n, 1e3 * stage.integrate_s / max(1, n)),
+    }
+
+
 def run_stages(
     *,
     provider: Any,
     controller: Any,
-    potentials: Any,
-    action_model: Any,
-    positions: np.ndarray,
+    mission: Any,
+    states: np.ndarray,
     n_stages: int,
     period_s: float,
     warmup_s: float,
@@ -127,26 +154,25 @@ def run_stages(
     ----------
     provider : NeighbourhoodProvider
         Network; reset at time 0 and advanced to ``warmup_s`` before the first stage.
-    controller : object with ``decide(snapshot, positions, rng) -> Decision``
-        The game controller or the Lloyd baseline.
-    potentials : CoveragePotentials
-        For the coverage metric.
-    action_model : HeadingActions
-        Maps the chosen action indices to next positions.
-    positions : ndarray, shape (N, D)
+    controller : object with ``decide(snapshot, states, rng) -> StageSolution``
+        The game controller or the Lloyd baseline (:mod:`swarmgames.sim.controllers`).
+    mission : Mission
+        Its ``swarm_metrics`` (and ``robot_metrics``, if any) are recorded every stage.
+    states : ndarray, shape (N, D)
         Start states; the first three columns are positions (x, y, z) in metres (the network
-        and the coverage metric see only those).
+        sees only those).
     progress : callable ``(done: int) -> None``, optional
         Called after every stage.
     """
-    pos = np.array(positions, dtype=float)
+    pos = np.array(states, dtype=float)
     n = pos.shape[0]
     times, traj, acts, stage_s, links = [], [pos.copy()], [], [], []
     per_robot: dict[str, list] = {}
     swarm: dict[str, list] = {}
     interrupted = False
     t_start = time.perf_counter()
-    rows = np.arange(n)
+    robot_metrics = getattr(mission, "robot_metrics", None)
+    prev = None
     try:
         provider.reset(pos[:, :3], 0.0)
         snap = provider.advance(warmup_s, pos[:, :3])
@@ -155,24 +181,27 @@ def run_stages(
             t = warmup_s + k * period_s
             dec = controller.decide(snap, pos, rng)
             mean_h, max_h, n_comp, edges = swarm_graph_stats(snap)
-            cov = potentials.coverage(pos)
-            new_pos = action_model.apply(pos)[rows, dec.actions]
+            measured = mission.swarm_metrics(pos, prev)
+            extra = robot_metrics(pos) if robot_metrics is not None else {}
+            new_pos = np.asarray(dec.next_states, dtype=float)
             snap_next = provider.advance(t + period_s, new_pos[:, :3])
             # A stage is recorded only once it is complete (Ctrl-C keeps whole stages).
             times.append(t)
             acts.append(np.asarray(dec.actions, dtype=np.int64))
-            for name, val in dec.per_robot().items():
-                per_robot.setdefault(name, []).append(val)
-            for name, val in (
-                ("mean_payoff", float(np.mean(dec.payoff))),
-                ("coverage", cov),
-                ("mean_hops", mean_h),
-                ("max_hops", max_h),
-                ("components", n_comp),
-            ):
+            for name, val in {**_robot_columns(dec, n), **extra}.items():
+                per_robot.setdefault(name, []).append(np.asarray(val))
+            row = {"mean_payoff": float(np.mean(dec.payoff)) if n else 0.0}
+            row.update((name, float(v)) for name, v in measured.items())
+            row.update(
+                mean_hops=mean_h,
+                max_hops=max_h,
+                components=n_comp,
+                oscillation=oscillation(prev, pos, new_pos),
+            )
+            for name, val in row.items():
                 swarm.setdefault(name, []).append(val)
             links.append(edges)
-            pos, snap = new_pos, snap_next
+            prev, pos, snap = pos, new_pos, snap_next
             traj.append(pos.copy())
             stage_s.append(time.perf_counter() - t_stage)
             if progress is not None:

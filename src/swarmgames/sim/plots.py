@@ -1,83 +1,97 @@
-"""Figures of a run: time series, and the swarm's paths over the ROI.
+"""Figures of a run: time series, and the swarm's paths over the mission's background.
 
 Figures are built with :class:`matplotlib.figure.Figure` directly (no pyplot state), so they
-can be made from threads and in headless runs.
+can be made from threads and in headless runs. What belongs to a mission (its metrics, its
+region or goal) comes from the mission's own columns and its optional ``draw(ax)`` hook.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from matplotlib.figure import Figure
-from matplotlib.patches import Ellipse
 
-__all__ = ["draw_roi", "plot_paths", "plot_timeseries"]
+from swarmgames.sim.result import NETWORK_COLUMNS
 
-
-def draw_roi(ax, roi, cmap: str = "Greens") -> None:
-    """Shade the ROI density on its grid and outline the concentration ellipse."""
-    pts = roi.points
-    dens = roi.weights / roi.cell_m**2
-    ax.scatter(pts[:, 0], pts[:, 1], c=dens, s=2, marker="s", cmap=cmap, alpha=0.5, lw=0)
-    lengths, _, angle = roi.semi_axes()
-    ax.add_patch(
-        Ellipse(
-            tuple(roi.mean),
-            2 * lengths[0],
-            2 * lengths[1],
-            angle=np.degrees(angle),
-            fill=False,
-            ls="--",
-            color="tab:green",
-            label=f"ROI ({roi.confidence:.0%})",
-        )
-    )
+__all__ = ["draw_background", "mission_columns", "plot_paths", "plot_timeseries"]
 
 
-def plot_timeseries(result) -> Figure:
-    """Mean payoff, coverage, local/global regret and the network against time."""
-    sw, me = result.swarm, result.metrics
-    fig = Figure(figsize=(10, 7), layout="constrained")
-    axs = fig.subplots(2, 2, sharex=True)
-    axs[0, 0].plot(sw["t"], sw["mean_payoff"], color="tab:blue")
-    axs[0, 0].set_ylabel("mean payoff $M_i$ (eq. 1)")
-    axs[0, 1].plot(sw["t"], sw["coverage"], color="tab:green")
-    axs[0, 1].set_ylabel("coverage: E[best signal] (dBm)")
-    grp = me.groupby("t")
-    axs[1, 0].plot(
-        grp["local_regret"].median().index, grp["local_regret"].median(), label="local, median"
-    )
-    axs[1, 0].plot(
-        grp["local_regret"].max().index, grp["local_regret"].max(), label="local, max", alpha=0.6
-    )
-    axs[1, 0].plot(
-        grp["global_regret"].median().index, grp["global_regret"].median(), label="global, median"
-    )
-    axs[1, 0].set_ylabel("regret")
-    axs[1, 0].legend(fontsize="small")
-    axs[1, 1].plot(sw["t"], sw["mean_hops"], label="mean hops")
-    axs[1, 1].plot(sw["t"], sw["max_hops"], label="max hops")
-    axs[1, 1].plot(sw["t"], sw["components"], label="components")
+def mission_columns(result) -> list[str]:
+    """The mission's own columns of ``swarm.csv``, in file order."""
+    own = {"t", "mean_payoff", *NETWORK_COLUMNS}
+    return [c for c in result.swarm.columns if c not in own]
+
+
+def draw_background(ax, mission) -> None:
+    """The mission's background (its ``draw`` hook), if it has one."""
+    draw = getattr(mission, "draw", None)
+    if draw is not None:
+        draw(ax)
+
+
+def _moving(result) -> tuple[np.ndarray, np.ndarray]:
     tr = result.trajectory
     n = int(tr["robot"].max()) + 1
     xyz = tr[["x", "y", "z"]].to_numpy().reshape(-1, n, 3)
     moving = (np.linalg.norm(np.diff(xyz, axis=0), axis=-1) > 1e-6).sum(axis=1)
-    axs[1, 1].plot(tr["t"].to_numpy()[::n][:-1], moving, label="moving robots", ls=":")
-    axs[1, 1].set_ylabel("network / motion")
-    axs[1, 1].legend(fontsize="small")
-    for ax in axs[1]:
+    return tr["t"].to_numpy()[::n][:-1], moving
+
+
+def plot_timeseries(result) -> Figure:
+    """Mean payoff, the mission's metrics, local/global regret and the network against time.
+
+    One panel per mission metric: the first beside the payoff, the others in further rows.
+    """
+    sw, me = result.swarm, result.metrics
+    own = mission_columns(result)
+    extra = own[1:]
+    rows = 2 + -(-len(extra) // 2)
+    fig = Figure(figsize=(10, 3.5 * rows), layout="constrained")
+    axs = fig.subplots(rows, 2, sharex=True, squeeze=False)
+    axs[0, 0].plot(sw["t"], sw["mean_payoff"], color="tab:blue")
+    axs[0, 0].set_ylabel("mean payoff $M_i$ (eq. 1)")
+    panels = [axs[0, 1], *axs[2:].ravel()]
+    for ax, name in zip(panels, own, strict=False):
+        ax.plot(sw["t"], sw[name], color="tab:green")
+        ax.set_ylabel(name)
+    for ax in panels[len(own) :]:
+        ax.set_visible(False)
+    grp = me.groupby("t")
+    reg = axs[1, 0]
+    reg.plot(grp["local_regret"].median().index, grp["local_regret"].median(), label="local, median")
+    reg.plot(grp["local_regret"].max().index, grp["local_regret"].max(), label="local, max", alpha=0.6)
+    reg.plot(
+        grp["global_regret"].median().index, grp["global_regret"].median(), label="global, median"
+    )
+    reg.set_ylabel("regret")
+    reg.legend(fontsize="small")
+    net = axs[1, 1]
+    net.plot(sw["t"], sw["mean_hops"], label="mean hops")
+    net.plot(sw["t"], sw["max_hops"], label="max hops")
+    net.plot(sw["t"], sw["components"], label="components")
+    t, moving = _moving(result)
+    net.plot(t, moving, label="moving robots", ls=":")
+    if "oscillation" in sw:
+        n = result.summary["n_robots"]
+        net.plot(sw["t"], n * sw["oscillation"], label="oscillating robots", ls="--")
+    net.set_ylabel("network / motion")
+    net.legend(fontsize="small")
+    for ax in axs[-1]:
         ax.set_xlabel("time (s)")
+    cfg = result.config
     fig.suptitle(
-        f"{result.config.name}: {result.summary['n_robots']} robots, "
-        f"{result.config.network.backend} network, {result.config.sim.controller} controller"
+        f"{cfg.name} ({result.summary.get('mission', cfg.scenario)}): "
+        f"{result.summary['n_robots']} robots, {cfg.network.backend} network, "
+        f"{cfg.sim.controller} controller"
     )
     return fig
 
 
 def plot_paths(result) -> Figure:
-    """Every robot's path over the ROI, start and end marked, final 1-hop links drawn."""
+    """Every robot's path over the mission's background, start and end marked, final 1-hop
+    links drawn."""
     fig = Figure(figsize=(7, 6.5), layout="constrained")
     ax = fig.subplots()
-    draw_roi(ax, result.roi)
+    draw_background(ax, result.mission)
     tr = result.trajectory
     n = int(tr["robot"].max()) + 1 if len(tr) else 0
     xy = tr[["x", "y"]].to_numpy().reshape(-1, n, 2) if n else np.zeros((0, 0, 2))
@@ -95,3 +109,4 @@ def plot_paths(result) -> Figure:
     ax.legend(loc="upper right", fontsize="small")
     ax.set_title("paths and final 1-hop links")
     return fig
+

@@ -24,7 +24,8 @@ METRICS_COLUMNS = [
     "solve_ms",
     "integrate_ms",
 ]
-SWARM_COLUMNS = ["t", "mean_payoff", "coverage", "mean_hops", "max_hops", "components"]
+#: The loop's own columns of swarm.csv; the mission's metrics stand after mean_payoff.
+NETWORK_COLUMNS = ["mean_hops", "max_hops", "components", "oscillation"]
 
 
 def _trajectory(log) -> pd.DataFrame:
@@ -47,7 +48,8 @@ def _trajectory(log) -> pd.DataFrame:
 def _metrics(log) -> pd.DataFrame:
     s, n = log.actions.shape
     cols: dict[str, Any] = {"t": np.repeat(log.times, n), "robot": np.tile(np.arange(n), s)}
-    for name in METRICS_COLUMNS[2:]:
+    names = METRICS_COLUMNS[2:] + [k for k in log.per_robot if k not in METRICS_COLUMNS]
+    for name in names:
         arr = log.per_robot.get(name)
         cols[name] = (arr if arr is not None else np.zeros((s, n))).ravel()
     return pd.DataFrame(cols)
@@ -55,13 +57,15 @@ def _metrics(log) -> pd.DataFrame:
 
 def _swarm(log) -> pd.DataFrame:
     cols: dict[str, Any] = {"t": log.times}
-    for name in SWARM_COLUMNS[1:]:
+    names = ["mean_payoff"] + [k for k in log.swarm if k not in ("mean_payoff", *NETWORK_COLUMNS)]
+    for name in names + NETWORK_COLUMNS:
         cols[name] = log.swarm.get(name, np.zeros(len(log.times)))
     return pd.DataFrame(cols)
 
 
-def summarise(log, config, wall_s: float) -> dict[str, Any]:
-    """Headline numbers of a run (``summary.json``)."""
+def summarise(log, config, mission, wall_s: float) -> dict[str, Any]:
+    """Headline numbers of a run (``summary.json``); the mission's own (its ``summary`` hook,
+    if any) follow the payoff."""
     s, n = log.actions.shape
     # A robot moves in a stage when its position changes (the action set may have several
     # actions that keep it in place, or none: a coasting UAV still moves).
@@ -75,16 +79,16 @@ def summarise(log, config, wall_s: float) -> dict[str, Any]:
     pr = log.per_robot
     sw = log.swarm
 
-    def first_last(name):
-        v = sw.get(name)
-        return (float(v[0]), float(v[-1])) if v is not None and len(v) else (None, None)
-
-    p0, p1 = first_last("mean_payoff")
-    c0, c1 = first_last("coverage")
+    mp = sw.get("mean_payoff", np.zeros(0))
+    p0, p1 = (float(mp[0]), float(mp[-1])) if len(mp) else (None, None)
+    summary_hook = getattr(mission, "summary", None)
+    own = dict(summary_hook(log.times, dict(sw))) if summary_hook is not None else {}
+    osc = sw.get("oscillation", np.zeros(0))
     lr = pr.get("local_regret", np.zeros((0, n)))
     gr = pr.get("global_regret", np.zeros((0, n)))
     return {
         "scenario": config.name,
+        "mission": getattr(mission, "name", config.scenario),
         "seed": config.seed,
         "controller": config.sim.controller,
         "solver": config.game.solver,
@@ -95,11 +99,12 @@ def summarise(log, config, wall_s: float) -> dict[str, Any]:
         "interrupted": bool(log.interrupted),
         "mean_payoff_start": p0,
         "mean_payoff_end": p1,
-        "coverage_start_dbm": c0,
-        "coverage_end_dbm": c1,
+        **own,
         "consensus": settled,
         "settled_at_s": float(log.times[still_from]) if settled and s else None,
         "moving_robots_last_stage": int(moving[-1].sum()) if s else 0,
+        "mean_oscillation": float(np.mean(osc)) if len(osc) else None,
+        "max_oscillation": float(np.max(osc)) if len(osc) else None,
         "median_local_regret": float(np.median(lr)) if lr.size else None,
         "fraction_local_regret_zero": float(np.mean(lr <= 1e-9)) if lr.size else None,
         "median_global_regret": (
@@ -129,8 +134,8 @@ class RunResult:
         1-hop links ``(E, 2)`` at every stage.
     summary : dict
         Headline numbers (``summary.json``).
-    roi : GaussianROI
-        The region of interest (for plots).
+    mission : Mission
+        The mission that ran (its drawing hooks serve the plots).
     folder : RunFolder or None
         Where the files were written.
     """
@@ -141,7 +146,7 @@ class RunResult:
     swarm: pd.DataFrame
     links: list
     summary: dict
-    roi: Any
+    mission: Any
     folder: Any = None
     files: list = field(default_factory=list)
 
@@ -151,7 +156,7 @@ class RunResult:
         return bool(self.summary.get("interrupted"))
 
     @classmethod
-    def from_log(cls, log, config, roi, wall_s: float) -> RunResult:
+    def from_log(cls, log, config, mission, wall_s: float) -> RunResult:
         """Assemble the tables and the summary from a :class:`~swarmgames.sim.loop.StageLog`."""
         return cls(
             config=config,
@@ -159,8 +164,8 @@ class RunResult:
             metrics=_metrics(log),
             swarm=_swarm(log),
             links=log.links,
-            summary=summarise(log, config, wall_s),
-            roi=roi,
+            summary=summarise(log, config, mission, wall_s),
+            mission=mission,
         )
 
     def to_frame(self, table: Literal["swarm", "metrics", "trajectory"] = "swarm") -> pd.DataFrame:
@@ -177,7 +182,8 @@ class RunResult:
         return plot_timeseries(self)
 
     def plot_paths(self):
-        """Paths of the robots over the ROI with the final links; a matplotlib Figure."""
+        """Paths of the robots over the mission's background with the final links; a
+        matplotlib Figure."""
         from swarmgames.sim.plots import plot_paths
 
         return plot_paths(self)

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from swarmgames.scenarios import GaussianROI, HeadingActions
-from swarmgames.sim.lloyd import lloyd_actions, voronoi_centroids
+from swarmgames.missions import GaussianROI, HeadingActions
+from swarmgames.missions.coverage.lloyd import lloyd_actions, voronoi_centroids
 
 
 @pytest.fixture

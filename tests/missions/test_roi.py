@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
-from swarmgames.scenarios import GaussianROI
+from swarmgames.missions import GaussianROI
 
 
 @pytest.mark.parametrize("confidence", [0.5, 0.9, 0.95, 0.99])

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from swarmgames.scenarios import SignalModel
+from swarmgames.missions import SignalModel
 
 
 def test_reference_values():

@@ -9,8 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from swarmgames.game import evaluate_payoffs, mean_field
-from swarmgames.scenarios import CoveragePotentials, GaussianROI, HeadingActions, SignalModel
-from swarmgames.scenarios.window import RoiRaster, floor_distance_sq, windowed_unary
+from swarmgames.missions import CoveragePotentials, GaussianROI, HeadingActions, SignalModel
+from swarmgames.missions.coverage.window import RoiRaster, floor_distance_sq, windowed_unary
 
 T0, L0, N_EXP = 16.0206, 46.6777, 3.0  # ns-3 log-distance defaults, REFERENCE.md section 2
 ROI = GaussianROI((0.0, 0.0), ((250.0**2, 0.0), (0.0, 200.0**2)), 0.95, 20.0)
@@ -173,7 +173,7 @@ def test_raster_holds_the_roi_weights():
 def test_state_ids_and_threads_give_the_same_unary(workers):
     # Shared signals keyed by robot id (real or virtual) equal those keyed by value.
     from swarmgames.game import local_games
-    from swarmgames.scenarios.scaling import scaled_config
+    from swarmgames.config.scaling import scaled_config
     from swarmgames.sim.runner import build_mission
     from tests.game.helpers import disk_snapshot
 

@@ -29,7 +29,8 @@ from __future__ import annotations
 
 import math
 
-from swarmgames.config import ScenarioConfig
+from swarmgames.config.io import parse_config, to_data
+from swarmgames.config.schema import ScenarioConfig
 
 __all__ = ["scaled_config"]
 
@@ -66,7 +67,7 @@ def scaled_config(
     -------
     ScenarioConfig
         ROI centred at the origin, UAVs starting uniformly over the ROI's disc, payoff tables
-        in float32 (``game.precision``).
+        in float32 (``game.dtype``).
 
     Raises
     ------
@@ -84,19 +85,21 @@ def scaled_config(
     if not (math.isfinite(area_per_robot_m2) and area_per_robot_m2 > 0):
         raise ValueError(f"area_per_robot_m2 must be > 0 (got {area_per_robot_m2})")
     base = ScenarioConfig() if base is None else base
-    k2 = -2.0 * math.log1p(-base.coverage.confidence)
+    if base.scenario != "coverage":
+        raise ValueError(f"base must be a coverage scenario (got scenario = {base.scenario!r})")
+    k2 = -2.0 * math.log1p(-base.mission.confidence)
     area = n_robots * area_per_robot_m2
     var = area / (math.pi * k2)
     radius = math.sqrt(area / math.pi)
-    data = base.model_dump()
-    data["swarm"].update(n_robots=n_robots, start_center_m=(0.0, 0.0), start_radius_m=radius)
+    data = to_data(base)
+    data["swarm"].update(n_robots=n_robots, start_center_m=[0.0, 0.0], start_radius_m=radius)
     data["coverage"].update(
-        roi_mean_m=(0.0, 0.0),
-        roi_cov_m2=((var, 0.0), (0.0, var)),
+        roi_mean_m=[0.0, 0.0],
+        roi_cov_m2=[[var, 0.0], [0.0, var]],
         signal_floor_dbm=signal_floor_dbm,
         workers=workers,
     )
     data["network"]["backend"] = backend
-    data["game"]["precision"] = "float32"
+    data["game"]["dtype"] = "float32"
     data["name"] = f"{base.name}-n{n_robots}"
-    return ScenarioConfig.model_validate(data)
+    return parse_config(data, source="scaled_config")

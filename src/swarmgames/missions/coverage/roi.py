@@ -122,11 +122,6 @@ class GaussianROI:
         object.__setattr__(self, "points", _frozen(rel[inside] + mean))
         object.__setattr__(self, "weights", _frozen(dens * self.cell_m**2))
 
-    @classmethod
-    def from_config(cls, cfg) -> GaussianROI:
-        """Build from a :class:`~swarmgames.config.CoverageConfig`."""
-        return cls(cfg.roi_mean_m, cfg.roi_cov_m2, cfg.confidence, cfg.grid_cell_m)
-
     @property
     def n_cells(self) -> int:
         """Number of grid cells inside the ellipse (G)."""

@@ -24,7 +24,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["AccelerationActions", "HeadingActions", "arena_for"]
+__all__ = [
+    "AccelerationActions",
+    "HeadingActions",
+    "arena_for",
+    "disc_states",
+    "uav_actions",
+]
 
 STAY = 0
 
@@ -106,11 +112,6 @@ class HeadingActions:
         ok = nxt <= now + 1e-9
         ok[..., STAY] = True
         return ok
-
-    @classmethod
-    def from_config(cls, swarm, bounds=None) -> HeadingActions:
-        """Build from a :class:`~swarmgames.config.SwarmConfig` and an arena."""
-        return cls(swarm.step_m, swarm.n_headings, bounds)
 
     state_dim = 3
 
@@ -230,3 +231,58 @@ class AccelerationActions:
         ok = nxt <= now + 1e-9
         np.put_along_axis(ok, np.argmin(nxt, axis=-1)[..., None], True, axis=-1)
         return ok
+
+
+def disc_states(
+    n: int, center, radius: float, altitude: float, rng: np.random.Generator, state_dim: int = 3
+) -> np.ndarray:
+    """``n`` UAVs drawn uniformly over a take-off disc at ``altitude``, at rest.
+
+    Parameters
+    ----------
+    n : int
+        Number of UAVs.
+    center : (float, float)
+        Centre of the disc (x, y), metres.
+    radius : float
+        Radius of the disc, metres.
+    altitude : float
+        z of every UAV, metres.
+    rng : numpy.random.Generator
+        Two draws per UAV: all radii (``sqrt`` of a uniform, so the density is uniform over
+        the disc), then all angles.
+    state_dim : int
+        D >= 3; columns after (x, y, z) (velocities) are 0.
+
+    Returns
+    -------
+    ndarray, shape (n, state_dim)
+    """
+    r = radius * np.sqrt(rng.random(n))
+    theta = 2.0 * np.pi * rng.random(n)
+    out = np.zeros((n, max(3, int(state_dim))))
+    out[:, 0] = center[0] + r * np.cos(theta)
+    out[:, 1] = center[1] + r * np.sin(theta)
+    out[:, 2] = altitude
+    return out
+
+
+def uav_actions(swarm, period_s: float, bounds=None) -> HeadingActions | AccelerationActions:
+    """The action set a swarm section names (``swarm.action_set``), kept inside ``bounds``.
+
+    Parameters
+    ----------
+    swarm : SwarmConfig
+        Uses ``action_set``, ``step_m``, ``n_headings``, ``accel_step_m_s2``,
+        ``accel_levels`` and ``max_speed_m_s``.
+    period_s : float
+        The control period (``sim.control_period_s``), seconds.
+    bounds : tuple of 4 floats, optional
+        Arena ``(xmin, xmax, ymin, ymax)``, metres.
+    """
+    if swarm.action_set == "acceleration":
+        return AccelerationActions(
+            swarm.accel_step_m_s2, swarm.accel_levels, swarm.max_speed_m_s, period_s, bounds
+        )
+    return HeadingActions(swarm.step_m, swarm.n_headings, bounds)
+

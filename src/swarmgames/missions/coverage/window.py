@@ -45,8 +45,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from swarmgames.scenarios.roi import GaussianROI
-from swarmgames.scenarios.signal import SignalModel
+from swarmgames.missions.coverage.roi import GaussianROI
+from swarmgames.missions.coverage.signal import SignalModel
 
 __all__ = ["RoiRaster", "floor_distance_sq", "windowed_unary"]
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from swarmgames.scenarios import HeadingActions, arena_for
-from swarmgames.scenarios.roi import GaussianROI
+from swarmgames.missions import HeadingActions, arena_for
+from swarmgames.missions.coverage.roi import GaussianROI
 
 
 def test_actions_move_step_at_constant_altitude():
@@ -52,7 +52,7 @@ def test_bad_parameters(kwargs, match):
 
 def test_acceleration_labels_of_the_authors_controller():
     # REFERENCE.md section 5: 25 labels on a +-0.5 m/s^2 grid, step 0.25, over 1 s, |v| <= 1.
-    from swarmgames.scenarios import AccelerationActions
+    from swarmgames.missions import AccelerationActions
 
     m = AccelerationActions(0.25, 2, 1.0, 1.0)
     assert m.n_actions == 25
@@ -69,7 +69,7 @@ def test_acceleration_labels_of_the_authors_controller():
 
 
 def test_acceleration_near_the_arena_edge_keeps_one_action():
-    from swarmgames.scenarios import AccelerationActions
+    from swarmgames.missions import AccelerationActions
 
     m = AccelerationActions(0.25, 2, 1.0, 1.0, (-100.0, 100.0, -100.0, 100.0))
     ok = m.valid(np.array([99.9, 0.0, 30.0, 1.0, 0.0]))

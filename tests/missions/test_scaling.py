@@ -5,8 +5,8 @@ import math
 import pytest
 
 from swarmgames.config import ScenarioConfig
-from swarmgames.scenarios import GaussianROI
-from swarmgames.scenarios.scaling import scaled_config
+from swarmgames.missions import GaussianROI
+from swarmgames.config.scaling import scaled_config
 
 
 @pytest.mark.parametrize("n", [1, 10, 1000])

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from swarmgames.scenarios import CoveragePotentials, GaussianROI, HeadingActions, SignalModel
+from swarmgames.missions import CoveragePotentials, GaussianROI, HeadingActions, SignalModel
 
 T0, L0, N_EXP = 16.0206, 46.6777, 3.0  # ns-3 log-distance defaults, REFERENCE.md section 2
 
@@ -243,7 +243,7 @@ def test_pair_table_equals_the_dense_pairwise_table(small, dtype):
 
 
 def test_best_signal_by_nearest_uav_equals_the_dense_field(small, monkeypatch):
-    import swarmgames.scenarios.coverage as cov
+    import swarmgames.missions.coverage.potentials as cov
 
     pot, _ = small
     rng = np.random.default_rng(4)

@@ -14,7 +14,7 @@ action :math:`x_k`:
 The unary term is the expected best signal that the neighbourhood gives the ROI when ``k`` takes
 action :math:`x_k` and the other variables stay at their (reported or virtual) states; the
 pairwise term is the link quality between two neighbours after both moved. The integral is the
-midpoint sum of :class:`~swarmgames.scenarios.roi.GaussianROI` (weights :math:`p(r_g) a^2`, not
+midpoint sum of :class:`~swarmgames.missions.coverage.roi.GaussianROI` (weights :math:`p(r_g) a^2`, not
 normalised: the unary is :math:`\\approx c\\,\\times` the mean signal in dBm). Signals are in
 dBm and therefore negative at the distances of interest; the solver is invariant to a constant
 shift of a variable's payoffs, so the sign does not matter to the game.
@@ -46,7 +46,7 @@ small area see almost the same neighbourhood, so eq. 4 gives them almost the sam
 they fly in lockstep as a clump. A penalty that grows as a robot's next position comes within
 :math:`d_{sep}` of another robot's current position depends on where each robot sits in the
 clump, so neighbours choose different headings; it doubles as collision avoidance. With
-``crowding = "pairwise"`` (the default) the penalty is a
+``separation_mode = "pairwise"`` (the default) the penalty is a
 pairwise potential of eq. 1 on *both* robots' next positions,
 :math:`\\phi_{sep}(k, x_k, l, x_l) = -c_{sep} \\sum_g p(r_g) a^2
 \\max(0, 1 - |S_k(x_k) - S_l(x_l)| / d_{sep})^2`, so the local game charges a joint move
@@ -55,13 +55,10 @@ robot of a near co-located clump believes that any move escapes the penalty, eve
 believes the same, the clump moves in lockstep, stays crowded, and the coverage term pulls it
 back: a period-2 oscillation that never settles (20 UAVs, docs/coverage.md).
 
-Move cost: in eq. 4 every variable
-is scored with the others held at their current states, but all robots move at once. Near the
-optimum this makes neighbours swap back and forth between two adjacent grid positions for
-ever (each step gains a few thousandths of a dB against the old positions of the others). A
-small cost per move, :math:`c_{move}` dB of expected signal, removes these 2-cycles: a robot
-moves only while a move improves its neighbourhood's expected best signal by more than
-:math:`c_{move}`, so the swarm reaches consensus (every robot stays).
+Move cost (``move_cost_db``): the switching cost of :class:`~swarmgames.game.inertia.Inertia`,
+:math:`c_{move} \\sum_g p(r_g) a^2` on every move, added by the coverage mission
+(:mod:`swarmgames.missions.coverage.mission`); it lets the swarm settle instead of swapping
+neighbouring positions for ever.
 
 References
 ----------
@@ -76,9 +73,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from swarmgames.scenarios.roi import GaussianROI
-from swarmgames.scenarios.signal import SignalModel
-from swarmgames.scenarios.window import RoiRaster, floor_distance_sq, windowed_unary
+from swarmgames.missions.coverage.roi import GaussianROI
+from swarmgames.missions.coverage.signal import SignalModel
+from swarmgames.missions.coverage.window import RoiRaster, floor_distance_sq, windowed_unary
 
 __all__ = ["CoveragePotentials"]
 
@@ -117,17 +114,14 @@ class CoveragePotentials:
         Crowding penalty: :math:`c_{sep} \\sum_g p(r_g) a^2 \\sum_{l \ne k}
         \\max(0, 1 - d(S_k(x_k), S_l) / d_{sep})^2` is subtracted from the unary (0 = off).
         See the module notes.
-    crowding : {"pairwise", "unary"}, default "pairwise"
+    separation_mode : {"pairwise", "unary"}, default "pairwise"
         Where the crowding penalty enters: the unary (each next position against the others'
         current positions) or the pairwise term (both next positions; :meth:`pairwise` and
         :meth:`pair_table` carry :math:`\\phi_{sep} / \\alpha_b`, so that the engine's
         weight :math:`\\alpha_b` gives it back its weight ``separation_cost_db``).
-    pair_weight : float, default 0.001
-        :math:`\\alpha_b` of eq. 1 (``game.alpha_b``); must be > 0 for the pairwise crowding.
-    move_cost_db : float, default 0.0
-        Cost of a move, in dB of expected ROI signal: every action that changes a variable's
-        state has :math:`c_{move} \\cdot \\sum_g p(r_g) a^2` subtracted from its unary (0 = the
-        paper's eq. 4 exactly). See the module notes.
+    alpha_b : float, default 0.001
+        :math:`\\alpha_b` of eq. 1 (``game.alpha_b``); must be > 0 for the pairwise crowding
+        penalty.
     chunk_elems : int, default 4_000_000
         Upper bound on the elements of one temporary ``(games, K, A, cells)`` block.
     workers : int, default 1
@@ -135,7 +129,7 @@ class CoveragePotentials:
     signal_floor_dbm : float or None, default None
         Signals below this level count as the level in eq. 4, and each variable's unary is
         integrated only over the cells its actions can change, relative to what the other
-        variables give there (:mod:`swarmgames.scenarios.window`): the unary then differs from
+        variables give there (:mod:`swarmgames.missions.coverage.window`): the unary then differs from
         eq. 4 by a term free of the variable's action, which changes no marginal and no
         deviation gain. None: the whole ROI (the paper's eq. 4 exactly).
 
@@ -155,51 +149,29 @@ class CoveragePotentials:
 
     roi: GaussianROI
     signal: SignalModel = field(default_factory=SignalModel)
-    move_cost_db: float = 0.0
     softness_db: float = 0.0
     separation_m: float = 0.0
     separation_cost_db: float = 0.0
     chunk_elems: int = 4_000_000
     signal_floor_dbm: float | None = None
     workers: int = 1
-    crowding: str = "pairwise"
-    pair_weight: float = 0.001
+    separation_mode: str = "pairwise"
+    alpha_b: float = 0.001
     last_integrate_s: float = field(default=0.0, init=False)
     _raster: RoiRaster | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
-        if self.crowding not in ("pairwise", "unary"):
-            raise ValueError(f"crowding must be 'pairwise' or 'unary' (got {self.crowding!r})")
-        if not (np.isfinite(self.pair_weight) and self.pair_weight >= 0):
-            raise ValueError(f"pair_weight must be >= 0 and finite (got {self.pair_weight})")
-        if self.crowding == "pairwise" and self._crowding_on and self.pair_weight == 0:
+        if self.separation_mode not in ("pairwise", "unary"):
             raise ValueError(
-                "the pairwise crowding penalty needs a pairwise weight > 0 (got pair_weight = 0, "
+                f"separation_mode must be 'pairwise' or 'unary' (got {self.separation_mode!r})"
+            )
+        if not (np.isfinite(self.alpha_b) and self.alpha_b >= 0):
+            raise ValueError(f"alpha_b must be >= 0 and finite (got {self.alpha_b})")
+        if self.separation_mode == "pairwise" and self._crowding_on and self.alpha_b == 0:
+            raise ValueError(
+                "the pairwise crowding penalty needs a pairwise weight > 0 (got alpha_b = 0, "
                 "i.e. game.alpha_b = 0): set separation_mode = 'unary' or separation_cost_db = 0"
             )
-
-    @classmethod
-    def from_config(cls, coverage, pair_weight: float = 0.001) -> CoveragePotentials:
-        """Build from a :class:`~swarmgames.config.CoverageConfig`; ``pair_weight`` is the
-        game's :math:`\\alpha_b` (``game.alpha_b``), which the pairwise crowding penalty
-        divides out so that its weight stays ``separation_cost_db``."""
-        return cls(
-            GaussianROI.from_config(coverage),
-            SignalModel(
-                coverage.t0_dbm,
-                coverage.l0_db,
-                coverage.path_exponent,
-                coverage.reference_distance_m,
-            ),
-            move_cost_db=coverage.move_cost_db,
-            softness_db=coverage.softness_db,
-            separation_m=coverage.separation_m,
-            separation_cost_db=coverage.separation_cost_db,
-            signal_floor_dbm=getattr(coverage, "signal_floor_dbm", None),
-            workers=getattr(coverage, "workers", 1),
-            crowding=getattr(coverage, "separation_mode", "pairwise"),
-            pair_weight=pair_weight,
-        )
 
     # ------------------------------------------------------------------ mission metrics
     def best_signal(self, positions: np.ndarray) -> np.ndarray:
@@ -245,11 +217,8 @@ class CoveragePotentials:
             out = self._windowed(mask, amask, states, nxt, ids)
         else:
             self._full_grid(out, mask, amask, states, nxt)
-        if self._crowding_on and self.crowding == "unary":
+        if self._crowding_on and self.separation_mode == "unary":
             out -= self._crowding(mask, states, nxt)
-        if self.move_cost_db:
-            moved = np.any(np.abs(nxt - states[:, :, None, :]) > 1e-9, axis=-1)
-            out -= np.where(moved, self.move_cost_db * self.roi.mass, 0.0)
         out[~amask] = 0.0
         self.last_integrate_s = time.perf_counter() - t0
         return out
@@ -358,7 +327,7 @@ class CoveragePotentials:
             return
         d = np.linalg.norm(nxt[gb, gk][:, :, None, :] - nxt[gb, gl][:, None, :, :], axis=-1)
         pen = np.maximum(0.0, 1.0 - d / self.separation_m) ** 2  # (P, A, A)
-        scale = 2.0 * self.separation_cost_db * self.roi.mass / self.pair_weight
+        scale = 2.0 * self.separation_cost_db * self.roi.mass / self.alpha_b
         out.reshape(B, K, A, K, A)[gb, gk, :, gl, :] -= (scale * pen).astype(out.dtype)
 
     def pairwise(self, batch) -> np.ndarray:
@@ -377,9 +346,9 @@ class CoveragePotentials:
             a = nxt[lo:hi, :, None, :, None, :]  # (b, K, 1, A, 1, 3)
             b = nxt[lo:hi, None, :, None, :, :]  # (b, 1, K, 1, A, 3)
             val = self.signal.link(a, b)
-            if self._crowding_on and self.crowding == "pairwise":
+            if self._crowding_on and self.separation_mode == "pairwise":
                 pen = np.maximum(0.0, 1.0 - np.linalg.norm(a - b, axis=-1) / self.separation_m)
-                val = val - (self.separation_cost_db * self.roi.mass / self.pair_weight) * pen**2
+                val = val - (self.separation_cost_db * self.roi.mass / self.alpha_b) * pen**2
             ok = amask[lo:hi, :, None, :, None] & amask[lo:hi, None, :, None, :] & off_diag
             out[lo:hi] = np.where(ok, val, 0.0)
         return out
@@ -427,7 +396,7 @@ class CoveragePotentials:
                 d2 += offset
 
             _run_chunks(chunk, range(0, B, step), self.workers)
-            if self._crowding_on and self.crowding == "pairwise":
+            if self._crowding_on and self.separation_mode == "pairwise":
                 self._add_pair_crowding(out, batch)
             return out.reshape(B, K, A, K, A)
         for lo in range(0, B, step):
@@ -440,6 +409,6 @@ class CoveragePotentials:
                 d2 += diff * diff
             val = sig.power_sq(d2.astype(dtype, copy=False), dtype=dtype.type)
             np.add(val, val, out=out[lo:hi])
-        if self._crowding_on and self.crowding == "pairwise":
+        if self._crowding_on and self.separation_mode == "pairwise":
             self._add_pair_crowding(out, batch)
         return out.reshape(B, K, A, K, A)

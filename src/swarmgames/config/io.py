@@ -1,0 +1,349 @@
+"""Reading and writing scenarios: TOML files, built-in presets, ``--set`` overrides.
+
+Scenario files are TOML with one table per section; the mission's parameters are the table
+named by ``scenario``::
+
+    name = "coverage"
+    scenario = "coverage"
+    seed = 7
+
+    [swarm]
+    n_robots = 7
+
+    [coverage]
+    move_cost_db = 0.0
+
+Values are never coerced: validation runs in pydantic's strict JSON mode (``"7"`` is not an
+int, ``1`` is not a bool), yet TOML arrays are accepted where a tuple is declared. Every
+problem becomes one line ``<field.path>: <rule> (got <value>)`` of one
+:class:`~swarmgames.errors.ConfigError`.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import tomli_w
+from pydantic import BaseModel, ValidationError
+
+from swarmgames.config.schema import ScenarioConfig
+from swarmgames.errors import ConfigError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised on Python 3.10 only
+    import tomli as tomllib
+
+__all__ = [
+    "apply_overrides",
+    "builtin_scenarios",
+    "format_validation_error",
+    "load_config",
+    "parse_config",
+    "resolve_scenario",
+    "set_path",
+    "to_data",
+    "to_toml",
+]
+
+
+def _rule(err: dict[str, Any]) -> str:
+    kind, ctx = err["type"], err.get("ctx") or {}
+    bounds = {
+        "greater_than": ">",
+        "greater_than_equal": ">=",
+        "less_than": "<",
+        "less_than_equal": "<=",
+    }
+    if kind in bounds:
+        return f"must be {bounds[kind]} {next(iter(ctx.values()))}"
+    if kind == "extra_forbidden":
+        return "is not a known field"
+    if kind == "missing":
+        return "is required"
+    if kind == "value_error":
+        return str(ctx.get("error", err["msg"]))
+    return err["msg"][0].lower() + err["msg"][1:]
+
+
+def _error_lines(exc: ValidationError, mission: str | None = None) -> list[str]:
+    """One line per problem; a path into ``mission`` is shown under the mission's name."""
+    lines = []
+    for err in exc.errors():
+        loc = list(err["loc"])
+        if mission and loc and loc[0] == "mission":
+            loc[0] = mission
+        path = ".".join(str(p) for p in loc)
+        rule = _rule(err)
+        if err["type"] == "value_error" and "(got" in rule:
+            lines.append(f"{path}: {rule}" if path else rule)
+        else:
+            lines.append(f"{path}: {rule} (got {err['input']!r})")
+    return lines
+
+
+def _config_error(lines: list[str], source: str | None) -> ConfigError:
+    where = f" in {source}" if source else ""
+    head = f"invalid configuration{where}: " + (
+        lines[0] if len(lines) == 1 else f"{len(lines)} problems"
+    )
+    msg = head if len(lines) == 1 else head + "\n  " + "\n  ".join(lines)
+    return ConfigError(msg, lines)
+
+
+def format_validation_error(exc: ValidationError, source: str | None = None) -> ConfigError:
+    """Turn a pydantic ``ValidationError`` into a :class:`ConfigError` with one line per problem:
+    ``<field.path>: <rule> (got <value>)``."""
+    return _config_error(_error_lines(exc), source)
+
+
+def _json(data: Any) -> str:
+    return json.dumps(data, default=lambda o: o.item() if hasattr(o, "item") else str(o))
+
+
+def parse_config(data: dict[str, Any] | None = None, source: str | None = None) -> ScenarioConfig:
+    """Validate a mapping (as read from TOML) into a :class:`ScenarioConfig`.
+
+    The mission's table is validated by the mission's own section class first, so that its
+    problems are reported with their paths (``coverage.grid_cell_m: ...``) together with those
+    of the other sections.
+
+    Raises
+    ------
+    ConfigError
+        On an unknown key, a wrong type or an out-of-range value; the message names the field
+        path, the rule and the value.
+    """
+    from swarmgames.missions.registry import get_mission, mission_names
+
+    data = dict(data or {})
+    name = data.get("scenario", "coverage")
+    lines: list[str] = []
+    if isinstance(name, str):
+        for other in mission_names():
+            if other != name and other in data:
+                lines.append(
+                    f"{other}: is the section of mission {other!r}, but scenario = {name!r}"
+                )
+                data.pop(other)
+        if "mission" in data:
+            lines.append(f"mission: is not a known field; give the mission's table as [{name}]")
+            data.pop("mission")
+    if isinstance(name, str) and name in data and not isinstance(data[name], dict):
+        lines.append(f"{name}: must be a table of the mission's fields (got {data.pop(name)!r})")
+    if isinstance(name, str) and isinstance(data.get(name), dict):
+        try:
+            section = get_mission(name).config
+        except ConfigError:
+            section = None  # reported by the scenario field below
+        if section is not None:
+            table = data.pop(name)
+            try:
+                section.model_validate_json(_json(table), strict=True)
+                data["mission"] = table
+            except ValidationError as exc:
+                lines += [f"{name}.{line}" for line in _error_lines(exc)]
+    try:
+        # JSON mode in strict mode: no silent coercion ("7" is not an int), yet TOML arrays
+        # are accepted where a tuple is declared.
+        config = ScenarioConfig.model_validate_json(_json(data), strict=True)
+    except ValidationError as exc:
+        lines += _error_lines(exc, name if isinstance(name, str) else None)
+    if lines:
+        raise _config_error(lines, source)
+    return config
+
+
+def load_config(path: str | Path) -> ScenarioConfig:
+    """Read and validate a TOML scenario file.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "s.toml"
+    >>> _ = p.write_text("[swarm]\\nn_robots = 5\\n")
+    >>> load_config(p).swarm.n_robots
+    5
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"configuration file not found: {path}") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read configuration file {path}: {exc}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path} is not valid TOML: {exc}") from None
+    return parse_config(data, source=str(path))
+
+
+def builtin_scenarios() -> list[str]:
+    """Names of the scenario files shipped with swarmgames (``presets/*.toml``)."""
+    from importlib import resources
+
+    files = resources.files("swarmgames.presets").iterdir()
+    return sorted(f.name[:-5] for f in files if f.name.endswith(".toml"))
+
+
+def _builtin_text(name: str) -> str:
+    from importlib import resources
+
+    return (resources.files("swarmgames.presets") / f"{name}.toml").read_text(encoding="utf-8")
+
+
+def set_path(data: dict[str, Any], assignment: str) -> None:
+    """Apply one ``--set`` assignment ``"section.field=value"`` (a TOML value; a bare word is
+    a string) to the raw scenario data ``data`` in place."""
+    key, sep, raw = assignment.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise ConfigError(f"override must look like section.field=value (got {assignment!r})")
+    try:
+        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw.strip()  # a bare word is read as a string: backend=oracle
+    _set_value(data, key, value, assignment)
+
+
+def _set_value(data: dict[str, Any], key: str, value: Any, what: str) -> None:
+    *parents, leaf = key.split(".")
+    node = data
+    for part in parents:
+        child = node.setdefault(part, {})
+        if not isinstance(child, dict):
+            raise ConfigError(f"override {key}: {part} is not a section (got {what!r})")
+        node = child
+    node[leaf] = value
+
+
+def resolve_scenario(
+    scenario: str | Path | None = None, overrides: list[str] | tuple[str, ...] = ()
+) -> ScenarioConfig:
+    """Resolve a scenario given as a built-in name or a TOML file path, then apply overrides.
+
+    Parameters
+    ----------
+    scenario : str or Path, optional
+        A built-in name (see :func:`builtin_scenarios`), a path to a TOML file, or ``None`` for
+        the default scenario ``"coverage"``.
+    overrides : sequence of str
+        Assignments ``"section.field=value"`` with TOML values, e.g. ``"swarm.n_robots=20"``.
+
+    Raises
+    ------
+    ConfigError
+        Unknown scenario name (with close matches), unreadable file, or invalid values.
+    """
+    import difflib
+
+    scenario = "coverage" if scenario is None else scenario
+    path = Path(scenario)
+    if path.suffix == ".toml" or path.exists():
+        if not path.is_file():
+            raise ConfigError(f"configuration file not found: {path}")
+        source, text = str(path), path.read_text(encoding="utf-8")
+    else:
+        names = builtin_scenarios()
+        if str(scenario) not in names:
+            close = difflib.get_close_matches(str(scenario), names, n=3)
+            hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
+            raise ConfigError(
+                f"unknown scenario {str(scenario)!r}{hint} (built-in: {', '.join(names)}; "
+                "or give a path to a .toml file)"
+            )
+        source, text = f"built-in scenario {scenario!r}", _builtin_text(str(scenario))
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{source} is not valid TOML: {exc}") from None
+    for assignment in overrides:
+        set_path(data, assignment)
+    return parse_config(data, source=source)
+
+
+def _constraints(info: Any) -> str:
+    rules = []
+    for m in info.metadata:
+        for attr, sym in (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<=")):
+            v = getattr(m, attr, None)
+            if v is not None:
+                rules.append(f"{sym} {v}")
+    return f" [{', '.join(rules)}]" if rules else ""
+
+
+def _toml_value(value: Any) -> str:
+    """One-line TOML literal of a configuration value (arrays stay on one line)."""
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    return tomli_w.dumps({"v": value})[4:].strip()
+
+
+def _toml_lines(model: BaseModel, prefix: str, annotated: bool) -> list[str]:
+    lines: list[str] = []
+    subsections = []
+    for name, info in type(model).model_fields.items():
+        value = getattr(model, name)
+        if isinstance(value, BaseModel):
+            # The mission's section is written as the table named by the scenario.
+            table = model.scenario if isinstance(model, ScenarioConfig) and name == "mission" else name
+            subsections.append((table, value))
+            continue
+        if annotated:
+            lines.append(f"# {info.description}{_constraints(info)}")
+        if value is None:
+            if annotated:
+                lines.append(f"# {name} =   (unset)")
+        else:
+            lines.append(f"{name} = {_toml_value(value)}")
+    for name, value in subsections:
+        lines += ["", f"[{prefix}{name}]"]
+        if annotated:
+            lines.append("# " + (type(value).__doc__ or "").strip().splitlines()[0])
+        lines += _toml_lines(value, f"{prefix}{name}.", annotated)
+    return lines
+
+
+def to_toml(config: ScenarioConfig, annotated: bool = False) -> str:
+    """Serialise a configuration to TOML.
+
+    Parameters
+    ----------
+    config : ScenarioConfig
+        The configuration.
+    annotated : bool, default False
+        Precede every field with a comment giving its description, unit and allowed range.
+
+    Notes
+    -----
+    Fields left at ``None`` are omitted (commented out when annotated), which reads back as the
+    same ``None`` default, so ``parse_config(tomllib.loads(to_toml(c))) == c``.
+    """
+    return "\n".join(_toml_lines(config, "", annotated)) + "\n"
+
+
+def to_data(config: ScenarioConfig) -> dict[str, Any]:
+    """The configuration as plain data, the mission's section under its table name: what
+    :func:`parse_config` reads back into an equal configuration."""
+    data = config.model_dump(mode="json")
+    data[config.scenario] = data.pop("mission")
+    return data
+
+
+def apply_overrides(config: ScenarioConfig, overrides: dict[str, Any]) -> ScenarioConfig:
+    """``config`` with the fields at the dotted paths of ``overrides`` replaced, re-validated
+    (see :meth:`ScenarioConfig.with_overrides`)."""
+    if not isinstance(overrides, dict):
+        raise TypeError(f"overrides must be a dict of dotted paths (got {type(overrides).__name__})")
+    data = to_data(config)
+    for key, value in overrides.items():
+        if not (isinstance(key, str) and key.strip()):
+            raise ConfigError(f"override paths must be non-empty strings (got {key!r})")
+        if isinstance(value, tuple):
+            value = list(value)
+        _set_value(data, key.strip(), value, f"{key}={value!r}")
+    return parse_config(data, source="overrides")

@@ -1,0 +1,397 @@
+"""Validated configuration of a swarmgames scenario.
+
+Every field is typed, carries its unit in its description, has a default and declares its
+constraints (pydantic v2). Unknown keys are rejected. Errors are collected into one
+:class:`~swarmgames.errors.ConfigError` whose message names each field path, the rule broken and
+the value given, e.g. ``game.beta: must be > 0 (got -1.0)``.
+
+Scenario files are TOML with one table per section::
+
+    name = "coverage"
+    seed = 7
+
+    [swarm]
+    n_robots = 7
+
+    [game]
+    alpha_b = 0.001
+
+References
+----------
+.. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
+   Communication Networks", ICRA 2022 workshop (arXiv 2205.02203).
+.. [2] RFC 3626, "Optimized Link State Routing Protocol (OLSR)", sections 6-10 and 18.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal
+
+from pydantic import Field, SerializeAsAny, field_validator, model_validator
+
+from swarmgames.section import Section
+
+__all__ = [
+    "GameConfig",
+    "NetworkConfig",
+    "OlsrConfig",
+    "RadioConfig",
+    "ScenarioConfig",
+    "SimConfig",
+    "SwarmConfig",
+]
+
+_Section = Section
+
+
+class RadioConfig(_Section):
+    """Radio propagation and reception (ns-3 3.44 defaults)."""
+
+    tx_power_dbm: float = Field(
+        16.0206, ge=-30, le=60, description="Transmit power, dBm (ns-3 WifiPhy default, 40 mW)."
+    )
+    loss_model: Literal["friis", "log_distance"] = Field(
+        "friis", description="Path-loss model: 'friis' or 'log_distance'."
+    )
+    frequency_hz: float = Field(
+        5.15e9, gt=0, description="Carrier frequency for Friis, Hz (ns-3 Friis default)."
+    )
+    system_loss: float = Field(1.0, ge=1.0, description="Friis system loss L, linear (>= 1).")
+    min_loss_db: float = Field(0.0, ge=0, description="Friis minimum loss, dB.")
+    exponent: float = Field(3.0, gt=0, description="Log-distance path-loss exponent n.")
+    reference_distance_m: float = Field(
+        1.0, gt=0, description="Log-distance reference distance d0, metres."
+    )
+    reference_loss_db: float = Field(
+        46.6777, description="Log-distance loss at the reference distance, dB."
+    )
+    shadowing_sigma_db: float = Field(
+        0.0, ge=0, description="Log-normal shadowing standard deviation, dB (0 = off)."
+    )
+    nakagami_m: float | None = Field(
+        None, ge=0.5, description="Nakagami-m fading shape (1 = Rayleigh); omit for no fading."
+    )
+    rx_threshold_dbm: float = Field(
+        -82.0, le=0, description="Reception threshold, dBm (-82 = 802.11a 6 Mbit/s broadcast)."
+    )
+
+
+class OlsrConfig(_Section):
+    """OLSR timing (RFC 3626 section 18, ns-3 defaults)."""
+
+    hello_interval_s: float = Field(2.0, gt=0, description="HELLO emission interval, seconds.")
+    tc_interval_s: float = Field(5.0, gt=0, description="TC emission interval, seconds.")
+    max_jitter_s: float = Field(
+        0.5, ge=0, description="Upper bound of the uniform message jitter, seconds."
+    )
+    neighbour_hold_s: float = Field(
+        6.0, gt=0, description="Neighbour/link hold time (3 x HELLO interval), seconds."
+    )
+    topology_hold_s: float = Field(
+        15.0, gt=0, description="Topology hold time (3 x TC interval), seconds."
+    )
+    duplicate_hold_s: float = Field(30.0, gt=0, description="Duplicate-set hold time, seconds.")
+    willingness: Literal[0, 1, 3, 6, 7] = Field(
+        3, description="Willingness to relay: 0 never, 3 default, 7 always."
+    )
+    hello_only: bool | Literal["auto"] = Field(
+        "auto",
+        description=(
+            "Skip TC messages. 'auto' skips them when the game needs only h <= 2 hops, where "
+            "TCs cannot change N_i(h)."
+        ),
+    )
+
+    @model_validator(mode="after")
+    def _holds_cover_intervals(self) -> OlsrConfig:
+        if self.neighbour_hold_s <= self.hello_interval_s:
+            raise ValueError(
+                "neighbour_hold_s must be > hello_interval_s "
+                f"(got {self.neighbour_hold_s} <= {self.hello_interval_s})"
+            )
+        if self.topology_hold_s <= self.tc_interval_s:
+            raise ValueError(
+                "topology_hold_s must be > tc_interval_s "
+                f"(got {self.topology_hold_s} <= {self.tc_interval_s})"
+            )
+        return self
+
+
+class NetworkConfig(_Section):
+    """How each robot's neighbourhood N_i(h) is obtained."""
+
+    backend: Literal["olsr", "oracle", "disk", "knn", "ns3"] = Field(
+        "olsr",
+        description=(
+            "Neighbourhood provider: 'olsr' (built-in RFC 3626 model), 'oracle' (instant "
+            "shortest paths), 'disk' (fixed radius), 'knn' (k nearest), 'ns3' (ns-3 simulator)."
+        ),
+    )
+    hops: int = Field(2, ge=1, le=64, description="Neighbourhood radius h, hops (paper: 2).")
+    disk_radius_m: float = Field(368.84, gt=0, description="Radius of the 'disk' baseline, metres.")
+    knn_k: int = Field(4, ge=1, description="Number of neighbours of the 'knn' baseline.")
+    radio: RadioConfig = Field(default_factory=RadioConfig)
+    olsr: OlsrConfig = Field(default_factory=OlsrConfig)
+
+
+class GameConfig(_Section):
+    """Stage graphical game and its solver (paper section II.B-C, Algorithm 1)."""
+
+    alpha_a: float = Field(1.0, ge=0, description="Weight of the unary potentials (paper: 1).")
+    alpha_b: float = Field(
+        0.001, ge=0, description="Weight of the pairwise potentials (paper: 0.001)."
+    )
+    solver: Literal["mean_field", "best_response", "exact", "centralised", "random"] = Field(
+        "mean_field",
+        description=(
+            "Local-game solver: mean_field (Algorithm 1), best_response, exact (enumeration), "
+            "centralised (one swarm-wide mean-field game), random."
+        ),
+    )
+    virtual_mean: bool = Field(
+        True, description="Replace neighbours with outside neighbours by virtual means (eq. 3)."
+    )
+    beta: float = Field(
+        50.0, gt=0, description="Inverse temperature of Q_j(x) ∝ exp(beta · E[M_i | x]), 1/payoff."
+    )
+    delta: float = Field(1e-6, gt=0, description="KL(Q_old || Q) stopping threshold, nats.")
+    max_iter: int = Field(200, ge=1, description="Maximum mean-field sweeps.")
+    action_choice: Literal["argmax", "sample"] = Field(
+        "argmax", description="How a robot picks its action from its own marginal."
+    )
+    dtype: Literal["float64", "float32"] = Field(
+        "float64",
+        description="Floating-point precision of the payoff tables and marginals (float32 "
+        "halves the memory of the pairwise table, B K^2 A^2 values).",
+    )
+    engine: Literal["auto", "compiled", "blas", "sequential"] = Field(
+        "auto",
+        description="Mean-field engine: compiled (Numba kernel, all cores), blas or sequential "
+        "(numpy); auto = compiled when Numba is installed. They agree to rounding.",
+    )
+    max_profiles: int = Field(
+        1_000_000,
+        ge=1,
+        description="Largest number of joint profiles the exact solver enumerates per game.",
+    )
+    buckets: int = Field(
+        0,
+        ge=0,
+        le=1024,
+        description="Local games are solved in this many batches of similar neighbourhood "
+        "size (less padding); 0 = automatic (one per 128 robots, at most 8).",
+    )
+
+
+    @field_validator("solver", mode="before")
+    @classmethod
+    def _renamed_solver(cls, value: Any) -> Any:
+        if value == "no_virtual_mean":
+            raise ValueError(
+                "'no_virtual_mean' is not a solver: set game.solver = 'mean_field' and "
+                "game.virtual_mean = false (got 'no_virtual_mean')"
+            )
+        return value
+
+
+class SwarmConfig(_Section):
+    """The UAVs: number, take-off area, motion.
+
+    Defaults where the paper is silent: 7 UAVs (the paper's largest swarm); flight at 30 m
+    (a typical low-altitude survey height, well below the 368.84 m radio range, so altitude
+    barely changes the links); all UAVs take off from one common disc of 25 m radius at the
+    edge of the ROI, so the swarm starts as a single-hop clique and its links break and form as
+    it spreads; 10 m moves per 1 s period (10 m/s, a small multirotor's cruise speed) along
+    8 headings plus "stay" (a 3 x 3 "king's move" set, as the authors' grid controllers).
+    """
+
+    n_robots: int = Field(7, ge=1, le=100_000, description="Number of UAVs.")
+    altitude_m: float = Field(30.0, ge=0, description="Flight altitude above ground, metres.")
+    start_center_m: tuple[float, float] = Field(
+        (-300.0, 0.0), description="Centre of the common take-off area (x, y), metres."
+    )
+    start_radius_m: float = Field(
+        25.0, ge=0, description="Radius of the take-off disc, metres (uniform start positions)."
+    )
+    step_m: float = Field(
+        10.0, gt=0, description="Distance flown by one move action per control period, metres."
+    )
+    n_headings: int = Field(
+        8, ge=1, le=64, description="Number of headings of the move actions (plus 'stay')."
+    )
+    action_set: Literal["headings", "acceleration"] = Field(
+        "headings",
+        description=(
+            "'headings': stay + n_headings moves of step_m; 'acceleration': (2 accel_levels "
+            "+ 1)^2 acceleration labels rolled forward over one period (the authors' flocking "
+            "controller), speed capped at max_speed_m_s."
+        ),
+    )
+    accel_step_m_s2: float = Field(
+        0.25, gt=0, description="Grid step of the acceleration labels, m/s^2."
+    )
+    accel_levels: int = Field(
+        2, ge=1, le=10, description="Acceleration levels on each side of zero (2: +-0.5 m/s^2)."
+    )
+    max_speed_m_s: float = Field(
+        15.0, gt=0, description="Speed limit; step_m / control_period_s may not exceed it, m/s."
+    )
+    arena_margin_m: float = Field(
+        50.0,
+        ge=0,
+        description=(
+            "Margin of the arena box around the ROI and the take-off area; moves leaving the "
+            "arena are invalid, metres."
+        ),
+    )
+
+
+class SimConfig(_Section):
+    """The stage loop.
+
+    Defaults where the paper is silent: 90 s of mission (the default swarm crosses the ROI
+    and settles well within it) after a 10 s network warm-up (OLSR needs two HELLO rounds,
+    about 2.5 s in ns-3, before the first 1-hop routes exist).
+    """
+
+    control_period_s: float = Field(
+        1.0, gt=0, description="Time between two stage games, seconds (paper: 1 Hz)."
+    )
+    duration_s: float = Field(90.0, gt=0, description="Simulated mission time, seconds.")
+    warmup_s: float = Field(
+        10.0, ge=0, description="Network time before the first stage (OLSR start-up), seconds."
+    )
+    controller: Literal["game", "lloyd"] = Field(
+        "game",
+        description=(
+            "'game': every robot solves its local graphical game; 'lloyd': Lloyd/Voronoi "
+            "coverage baseline (centralised positions, no game)."
+        ),
+    )
+    global_regret: bool = Field(
+        True,
+        description=(
+            "Measure every robot's stage-game regret (metrics.csv global_regret); with virtual "
+            "means on it costs a second payoff evaluation per stage."
+        ),
+    )
+    animation: bool = Field(True, description="Write animation.gif of the swarm over the ROI.")
+    animation_frames: int = Field(
+        60, ge=2, le=1000, description="Maximum number of frames of the animation."
+    )
+
+
+class ScenarioConfig(_Section):
+    """A complete scenario: everything a run needs, and nothing it does not.
+
+    The mission's own section is ``mission``: in a scenario file, the table named by
+    ``scenario`` (``[coverage]`` for the default mission; :func:`~swarmgames.config.io.
+    parse_config` moves it), validated by that mission's section class
+    (:func:`swarmgames.missions.get_mission`).
+
+    Examples
+    --------
+    >>> cfg = ScenarioConfig()
+    >>> cfg.scenario, type(cfg.mission).__name__
+    ('coverage', 'CoverageConfig')
+    >>> cfg.with_overrides({"swarm.n_robots": 20, "coverage.move_cost_db": 0.0}).swarm.n_robots
+    20
+    """
+
+    name: str = Field(
+        "coverage",
+        min_length=1,
+        max_length=64,
+        pattern=r"^[A-Za-z0-9_.-]+$",
+        description="Scenario name; also the default run folder name.",
+    )
+    scenario: str = Field(
+        "coverage",
+        description=(
+            "Mission: a registered mission name (built in: coverage; plug-ins through the "
+            "'swarmgames.missions' entry points); its parameters are the table of that name."
+        ),
+    )
+    seed: int = Field(0, ge=0, description="Seed of the run's numpy random Generator.")
+    swarm: SwarmConfig = Field(default_factory=SwarmConfig)
+    network: NetworkConfig = Field(default_factory=NetworkConfig)
+    game: GameConfig = Field(default_factory=GameConfig)
+    sim: SimConfig = Field(default_factory=SimConfig)
+    mission: SerializeAsAny[Section] = Field(
+        default=None, description="The mission's own section (the table named by scenario)."
+    )
+
+    @field_validator("scenario")
+    @classmethod
+    def _known_mission(cls, name: str) -> str:
+        from swarmgames.missions.registry import get_mission
+
+        get_mission(name)  # ConfigError (a ValueError) naming the registered missions
+        return name
+
+    @field_validator("mission", mode="before")
+    @classmethod
+    def _mission_section(cls, value: Any, info) -> Any:
+        from swarmgames.missions.registry import get_mission
+
+        name = info.data.get("scenario")
+        if name is None:  # the scenario itself was invalid: reported there
+            return Section()
+        section = get_mission(name).config
+        if value is None:
+            return section()
+        if isinstance(value, section):
+            return value
+        if isinstance(value, Section):
+            raise ValueError(
+                f"mission {name!r} takes a {section.__name__} (got {type(value).__name__})"
+            )
+        return section.model_validate(value)
+
+    @model_validator(mode="after")
+    def _cross_field_rules(self) -> ScenarioConfig:
+        """Rules that span sections (each section checks its own fields)."""
+        sw, sim = self.swarm, self.sim
+        speed = sw.step_m / sim.control_period_s
+        if sw.action_set == "headings" and speed > sw.max_speed_m_s * (1 + 1e-12):
+            raise ValueError(
+                "swarm.step_m / sim.control_period_s must be <= swarm.max_speed_m_s "
+                f"(got {sw.step_m} m / {sim.control_period_s} s = {speed:g} m/s > "
+                f"{sw.max_speed_m_s} m/s)"
+            )
+        if sim.duration_s < sim.control_period_s:
+            raise ValueError(
+                "sim.duration_s must be >= sim.control_period_s "
+                f"(got {sim.duration_s} < {sim.control_period_s})"
+            )
+        if self.game.solver == "centralised" and sim.controller == "game" and sw.n_robots > 300:
+            raise ValueError(
+                "game.solver = 'centralised' holds an N^2 A^2 table: swarm.n_robots must be "
+                f"<= 300 (got {sw.n_robots})"
+            )
+        return self
+
+    def with_overrides(self, overrides: dict[str, Any]) -> ScenarioConfig:
+        """A re-validated copy with fields replaced by dotted path, as ``--set`` does.
+
+        Parameters
+        ----------
+        overrides : dict
+            ``{"section.field": value}``; the paths of ``--set`` (``"seed"``,
+            ``"swarm.n_robots"``, ``"network.radio.tx_power_dbm"``, the mission's table by
+            its name: ``"coverage.move_cost_db"``). Values are Python values, checked as
+            strictly as a scenario file's.
+
+        Returns
+        -------
+        ScenarioConfig
+            A new configuration; this one is unchanged (configurations are frozen).
+
+        Raises
+        ------
+        ConfigError
+            An unknown path, or a value the schema rejects (one line per problem).
+        """
+        from swarmgames.config.io import apply_overrides
+
+        return apply_overrides(self, overrides)

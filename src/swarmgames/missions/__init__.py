@@ -1,0 +1,46 @@
+"""Missions: what the swarm is asked to do, as potentials of the stage game.
+
+:class:`Mission` is the protocol the simulation needs; missions are found by name in a
+registry (:func:`get_mission`) that other packages extend through the entry-point group
+``swarmgames.missions``; :func:`check_mission` tells a plug-in author what is wrong. Built in:
+``coverage`` (the paper's), with the UAV motion models shared by every mission. See
+``docs/missions.md``.
+"""
+
+from swarmgames.missions.conformance import check_mission
+from swarmgames.missions.coverage import CoveragePotentials, GaussianROI, SignalModel
+from swarmgames.missions.motion import (
+    AccelerationActions,
+    HeadingActions,
+    arena_for,
+    disc_states,
+    uav_actions,
+)
+from swarmgames.missions.protocol import Mission
+from swarmgames.missions.registry import (
+    ENTRY_POINT_GROUP,
+    MissionEntry,
+    get_mission,
+    mission_names,
+    register_mission,
+    unregister_mission,
+)
+
+__all__ = [
+    "ENTRY_POINT_GROUP",
+    "AccelerationActions",
+    "CoveragePotentials",
+    "GaussianROI",
+    "HeadingActions",
+    "Mission",
+    "MissionEntry",
+    "SignalModel",
+    "arena_for",
+    "check_mission",
+    "disc_states",
+    "get_mission",
+    "mission_names",
+    "register_mission",
+    "uav_actions",
+    "unregister_mission",
+]

@@ -1,0 +1,252 @@
+"""``check_mission``: the conformance test a mission plug-in author runs.
+
+In the spirit of PettingZoo's ``parallel_api_test`` and scikit-learn's ``check_estimator``:
+one call exercises everything the simulation will ask of a mission, on a small swarm, and
+reports every problem it finds in one :class:`MissionCheckError` (a ``ValueError``) whose
+lines say what is wrong and what was expected. It returns nothing when the mission conforms.
+
+What is checked
+---------------
+* the attributes of :class:`~swarmgames.missions.protocol.Mission`: ``name`` (a non-empty
+  string), ``state_dim`` (an integer >= 3), ``potentials`` and ``action_model``;
+* ``initial_states``: shape ``(N, state_dim)``, finite, reproducible from a seeded Generator,
+  drawing nothing from numpy's global random state;
+* the action model at those states (:func:`~swarmgames.game.checks.check_action_model`);
+* the potentials on the local games of a line of robots, with and without virtual means
+  (:func:`~swarmgames.game.checks.check_potentials`: shapes, finite values, games that do not
+  depend on each other), before and after one stage of random valid actions;
+* ``swarm_metrics``: a mapping of names to finite real numbers, the same names at every stage,
+  none taken by the loop's own columns;
+* the optional hooks, where present: ``robot_metrics`` (finite ``(N,)`` arrays), ``summary``
+  (JSON-serialisable values), ``draw`` (runs on a matplotlib Axes), ``extent`` (a box with
+  ``xmin < xmax`` and ``ymin < ymax``) and ``density`` (points, non-negative weights, mean).
+"""
+
+from __future__ import annotations
+
+import json
+import numbers
+from typing import Any
+
+import numpy as np
+
+from swarmgames.game.actions import action_mask_of
+from swarmgames.game.checks import check_action_model, check_potentials
+from swarmgames.game.local import local_games
+from swarmgames.network.topology import TopologySnapshot
+
+__all__ = ["RESERVED_METRICS", "MissionCheckError", "check_mission"]
+
+#: Column names the simulation writes itself (swarm.csv and metrics.csv).
+RESERVED_METRICS = frozenset(
+    {
+        "t",
+        "robot",
+        "mean_payoff",
+        "mean_hops",
+        "max_hops",
+        "components",
+        "oscillation",
+        "payoff",
+        "neighbours",
+        "local_regret",
+        "global_regret",
+        "iterations",
+        "converged",
+        "solve_ms",
+        "integrate_ms",
+        "x",
+        "y",
+        "z",
+        "action",
+    }
+)
+
+
+class MissionCheckError(ValueError):
+    """A mission does not conform; ``problems`` lists every finding."""
+
+    def __init__(self, name: str, problems: list[str]) -> None:
+        self.problems = list(problems)
+        lines = "\n  ".join(self.problems)
+        super().__init__(f"mission {name!r} does not conform ({len(problems)} problems):\n  {lines}")
+
+
+def _line_snapshot(n: int) -> TopologySnapshot:
+    """Robots 0..n-1 on a line, each linked to the next: BFS hop counts."""
+    idx = np.arange(n)
+    return TopologySnapshot.from_hop_matrix(0.0, np.abs(idx[:, None] - idx[None, :]))
+
+
+def _metric_problems(where: str, out: Any, n: int | None, keys=None) -> list[str]:
+    if not isinstance(out, dict):
+        return [f"{where} must return a dict of name -> value (got {type(out).__name__})"]
+    found = []
+    for name, val in out.items():
+        if not (isinstance(name, str) and name):
+            found.append(f"{where}: metric names must be non-empty strings (got {name!r})")
+            continue
+        if name in RESERVED_METRICS:
+            found.append(f"{where}: {name!r} is a column the simulation writes itself")
+        if n is None:
+            ok = isinstance(val, numbers.Real) and not isinstance(val, bool)
+            if not ok or not np.isfinite(float(val)):
+                found.append(f"{where}[{name!r}] must be a finite real number (got {val!r})")
+        else:
+            arr = np.asarray(val)
+            if arr.shape != (n,) or not np.issubdtype(arr.dtype, np.number):
+                found.append(f"{where}[{name!r}] must be a numeric array of shape ({n},)")
+            elif not np.all(np.isfinite(arr)):
+                found.append(f"{where}[{name!r}] must be finite")
+    if keys is not None and set(out) != set(keys):
+        found.append(f"{where} must return the same names at every stage ({sorted(keys)})")
+    return found
+
+
+def check_mission(mission: Any, n_robots: int = 4, seed: int = 0) -> None:
+    """Check that ``mission`` follows the :class:`~swarmgames.missions.protocol.Mission`
+    protocol.
+
+    Parameters
+    ----------
+    mission : Mission
+        The mission object (for a registered one: ``get_mission(name).build(config)``).
+    n_robots : int, default 4
+        Size of the test swarm, >= 2.
+    seed : int, default 0
+        Seed of the test's random draws.
+
+    Raises
+    ------
+    MissionCheckError
+        Every problem found, one per line.
+
+    Examples
+    --------
+    >>> from swarmgames.config import ScenarioConfig
+    >>> from swarmgames.missions import get_mission
+    >>> check_mission(get_mission("coverage").build(ScenarioConfig()))
+    """
+    if isinstance(n_robots, bool) or not isinstance(n_robots, int) or n_robots < 2:
+        raise ValueError(f"n_robots must be an integer >= 2 (got {n_robots!r})")
+    name = getattr(mission, "name", None)
+    label = name if isinstance(name, str) else type(mission).__name__
+    problems: list[str] = []
+
+    def fail(msg: str) -> None:
+        raise MissionCheckError(label, [*problems, msg])
+
+    if not (isinstance(name, str) and name):
+        problems.append(f"name must be a non-empty string (got {name!r})")
+    for attr in ("potentials", "action_model", "state_dim", "initial_states", "swarm_metrics"):
+        if not hasattr(mission, attr):
+            problems.append(f"missing required attribute {attr!r}")
+    if problems:
+        raise MissionCheckError(label, problems)
+    dim = mission.state_dim
+    if isinstance(dim, bool) or not isinstance(dim, (int, np.integer)) or dim < 3:
+        fail(f"state_dim must be an integer >= 3 (x, y, z first) (got {dim!r})")
+
+    # initial_states: shape, finite, seeded, no global random state.
+    before = np.random.get_state()[1].copy()
+    try:
+        s0 = np.asarray(mission.initial_states(n_robots, np.random.default_rng(seed)), float)
+        again = np.asarray(mission.initial_states(n_robots, np.random.default_rng(seed)), float)
+    except Exception as exc:
+        fail(f"initial_states(n_robots, rng) raised {type(exc).__name__}: {exc}")
+    if not np.array_equal(np.random.get_state()[1], before):
+        problems.append("initial_states draws from numpy's global random state; use the rng")
+    if s0.shape != (n_robots, dim):
+        fail(f"initial_states must return shape ({n_robots}, {dim}) (got {s0.shape})")
+    if not np.all(np.isfinite(s0)):
+        fail("initial_states returned non-finite states")
+    if not np.array_equal(s0, again):
+        problems.append("initial_states is not reproducible: the same seed gave other states")
+
+    # Action model and potentials on real local games.
+    model = mission.action_model
+    try:
+        check_action_model(model, s0)
+    except ValueError as exc:
+        fail(f"action_model: {exc}")
+    rng = np.random.default_rng(seed + 1)
+    snap = _line_snapshot(n_robots)
+    nxt = np.asarray(model.apply(s0))
+    valid = action_mask_of(model, s0)
+    pick = np.array([rng.choice(np.flatnonzero(v)) for v in valid])
+    s1 = nxt[np.arange(n_robots), pick]
+    for states, when in ((s0, "at the initial states"), (s1, "after one stage")):
+        for vm in (True, False):
+            batch = local_games(snap, 1, states, model, virtual_mean=vm)
+            try:
+                check_potentials(mission.potentials, batch)
+            except Exception as exc:
+                problems.append(
+                    f"potentials {when} (virtual means {'on' if vm else 'off'}): "
+                    f"{type(exc).__name__}: {exc}"
+                )
+                break
+
+    # Metrics.
+    keys = None
+    for states, prev, when in ((s0, None, "first stage"), (s1, s0, "second stage")):
+        try:
+            out = mission.swarm_metrics(states, prev)
+        except Exception as exc:
+            problems.append(f"swarm_metrics at the {when} raised {type(exc).__name__}: {exc}")
+            break
+        problems += _metric_problems(f"swarm_metrics ({when})", out, None, keys)
+        keys = list(out) if isinstance(out, dict) else keys
+    problems += _optional_hooks(mission, s1, keys or [])
+    if problems:
+        raise MissionCheckError(label, problems)
+
+
+def _optional_hooks(mission: Any, states: np.ndarray, keys: list[str]) -> list[str]:
+    found: list[str] = []
+    n = states.shape[0]
+    if hasattr(mission, "robot_metrics"):
+        try:
+            found += _metric_problems("robot_metrics", mission.robot_metrics(states), n)
+        except Exception as exc:
+            found.append(f"robot_metrics raised {type(exc).__name__}: {exc}")
+    if hasattr(mission, "summary"):
+        times = np.array([0.0, 1.0])
+        swarm = {k: np.zeros(2) for k in ("mean_payoff", *keys)}
+        try:
+            out = mission.summary(times, swarm)
+            if not isinstance(out, dict):
+                found.append(f"summary must return a dict (got {type(out).__name__})")
+            else:
+                json.dumps(out, allow_nan=False)
+        except (TypeError, ValueError) as exc:
+            found.append(f"summary must return JSON-serialisable values: {exc}")
+        except Exception as exc:
+            found.append(f"summary raised {type(exc).__name__}: {exc}")
+    if hasattr(mission, "draw"):
+        from matplotlib.figure import Figure
+
+        try:
+            mission.draw(Figure().subplots())
+        except Exception as exc:
+            found.append(f"draw(ax) raised {type(exc).__name__}: {exc}")
+    if hasattr(mission, "extent"):
+        try:
+            box = np.asarray(mission.extent(), dtype=float)
+            if box.shape != (4,) or not np.all(np.isfinite(box)) or not (
+                box[0] < box[1] and box[2] < box[3]
+            ):
+                found.append(f"extent() must be (xmin, xmax, ymin, ymax), finite (got {box})")
+        except Exception as exc:
+            found.append(f"extent() raised {type(exc).__name__}: {exc}")
+    if hasattr(mission, "density"):
+        d = mission.density
+        try:
+            pts, w, mean = np.asarray(d.points), np.asarray(d.weights), np.asarray(d.mean)
+            if pts.ndim != 2 or pts.shape[1] != 2 or w.shape != (pts.shape[0],):
+                found.append("density must have points (G, 2) and weights (G,)")
+            elif np.any(w < 0) or not np.all(np.isfinite(w)) or mean.shape != (2,):
+                found.append("density weights must be finite and >= 0, its mean of shape (2,)")
+        except AttributeError as exc:
+            found.append(f"density must have points, weights and mean: {exc}")
+    return found

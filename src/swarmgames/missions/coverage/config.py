@@ -1,0 +1,119 @@
+"""The ``[coverage]`` section: the communication-aware coverage mission's parameters.
+
+References
+----------
+.. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
+   Communication Networks", ICRA 2022 workshop (arXiv 2205.02203), section III, eqs. 5-6.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from swarmgames.section import Section
+
+__all__ = ["CoverageConfig"]
+
+
+class CoverageConfig(Section):
+    """Communication-aware coverage mission (paper section III, eqs. 4-5).
+
+    Defaults where the paper is silent: an isotropic Gaussian ROI with sigma = 250 m (its 95 %
+    ellipse has a 612 m radius, so 7 UAVs spread over it sit farther apart than one radio range
+    of 368.84 m end to end and the network is multi-hop); a 20 m integration grid (about 2 900
+    cells: payoff differences between 10 m moves are resolved while a stage stays fast); the
+    signal model uses ns-3's log-distance defaults (T0 = 16.0206 dBm, L0 = 46.6777 dB at 1 m,
+    n = 3), the exponent the authors' scripts used.
+    """
+
+    roi_mean_m: tuple[float, float] = Field(
+        (0.0, 0.0), description="Mean of the Gaussian region of interest (x, y), metres."
+    )
+    roi_cov_m2: tuple[tuple[float, float], tuple[float, float]] = Field(
+        ((62500.0, 0.0), (0.0, 62500.0)),
+        description="Covariance of the Gaussian region of interest, square metres.",
+    )
+    confidence: float = Field(
+        0.95, gt=0, lt=1, description="Probability mass of the ROI concentration ellipse."
+    )
+    grid_cell_m: float = Field(20.0, gt=0, description="ROI integration grid cell size, metres.")
+    t0_dbm: float = Field(16.0206, description="Signal model transmit power T0, dBm.")
+    l0_db: float = Field(46.6777, description="Signal model reference loss L0, dB.")
+    path_exponent: float = Field(3.0, gt=0, description="Signal model exponent n.")
+    reference_distance_m: float = Field(
+        1.0,
+        gt=0,
+        description="Signal model reference distance d0; shorter distances are clamped, metres.",
+    )
+    softness_db: float = Field(
+        1.0,
+        ge=0,
+        description=(
+            "Temperature of the smooth maximum tau*ln(e^(a/tau) + e^(b/tau)) used for eq. 4's "
+            "max; not in the paper (0 = the hard max), dB."
+        ),
+    )
+    separation_m: float = Field(
+        50.0,
+        ge=0,
+        description=(
+            "Distance below which a robot's next position is penalised for crowding another "
+            "robot (not in the paper; 0 = off), metres."
+        ),
+    )
+    separation_cost_db: float = Field(
+        0.1,
+        ge=0,
+        description=(
+            "Weight of the crowding penalty, dB of expected ROI signal at zero distance "
+            "(not in the paper; 0 = off), dB."
+        ),
+    )
+    separation_mode: Literal["pairwise", "unary"] = Field(
+        "pairwise",
+        description=(
+            "How the crowding penalty sees the other robots: 'pairwise' = a pairwise potential "
+            "on both robots' next positions (the local game predicts both moves), 'unary' = "
+            "the robot's next position against the others' current positions (each assumes "
+            "the others stay; co-located robots can then oscillate in lockstep); no unit."
+        ),
+    )
+    move_cost_db: float = Field(
+        0.01,
+        ge=0,
+        description=(
+            "Cost of one move in the unary potential, dB of expected ROI signal; not in the "
+            "paper (0 = eq. 4 exactly); a small cost lets the swarm settle, dB."
+        ),
+    )
+
+    signal_floor_dbm: float | None = Field(
+        None,
+        description=(
+            "Level below which a signal no longer counts in eq. 4 (signals are clamped to it), "
+            "so a UAV's unary is integrated only over the grid cells within the radius where "
+            "its signal reaches the floor; for large swarms (None = the whole ROI, the paper), "
+            "dBm."
+        ),
+    )
+
+    workers: int = Field(
+        1,
+        ge=1,
+        le=64,
+        description=(
+            "Threads integrating the unary under a signal floor (numpy releases the GIL; the "
+            "result does not depend on it)."
+        ),
+    )
+
+    @model_validator(mode="after")
+    def _covariance_positive_definite(self) -> CoverageConfig:
+        (a, b), (c, d) = self.roi_cov_m2
+        if b != c or a <= 0 or a * d - b * c <= 0:
+            raise ValueError(
+                f"roi_cov_m2 must be symmetric positive definite (got {self.roi_cov_m2})"
+            )
+        return self

@@ -1,0 +1,149 @@
+"""The communication-aware coverage mission as a :class:`~swarmgames.missions.Mission`.
+
+The UAVs take off from a common disc and spread over a Gaussian region of interest (ROI) to
+maximise the expected best signal a ground point receives (paper section III). The stage
+game's potentials are eqs. 5-6 (:class:`~swarmgames.missions.coverage.potentials.
+CoveragePotentials`) plus the move cost as :class:`~swarmgames.game.inertia.Inertia`; the
+per-stage metric is ``coverage``, :math:`E[\\max_i \\psi_R(S_i, r) \\mid r \\in \\mathcal{R}]`
+in dBm, with the hard maximum whatever the potentials use.
+
+References
+----------
+.. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
+   Communication Networks", ICRA 2022 workshop (arXiv 2205.02203), section III, eqs. 5-6.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from swarmgames.errors import ConfigError
+from swarmgames.game.inertia import Inertia
+from swarmgames.missions.coverage.config import CoverageConfig
+from swarmgames.missions.coverage.potentials import CoveragePotentials
+from swarmgames.missions.coverage.roi import GaussianROI
+from swarmgames.missions.coverage.signal import SignalModel
+from swarmgames.missions.motion import arena_for, disc_states, uav_actions
+from swarmgames.missions.registry import MissionEntry
+
+__all__ = ["ENTRY", "CoverageMission", "build"]
+
+
+@dataclass(frozen=True, eq=False)
+class CoverageMission:
+    """Coverage of ``roi`` by UAVs taking off from a disc.
+
+    Parameters
+    ----------
+    potentials : Potentials
+        The game's potentials (``CoveragePotentials``, usually wrapped in ``Inertia``).
+    action_model : HeadingActions or AccelerationActions
+    roi : GaussianROI
+    start_center_m : (float, float)
+    start_radius_m : float
+    altitude_m : float
+    """
+
+    potentials: Any
+    action_model: Any
+    roi: GaussianROI
+    start_center_m: tuple[float, float]
+    start_radius_m: float
+    altitude_m: float
+    name: str = "coverage"
+
+    @property
+    def state_dim(self) -> int:
+        """D: 3 for heading moves, 5 for acceleration labels (velocities)."""
+        return int(self.action_model.state_dim)
+
+    @property
+    def density(self) -> GaussianROI:
+        """The ROI, as the Lloyd baseline's density."""
+        return self.roi
+
+    def initial_states(self, n_robots: int, rng: np.random.Generator) -> np.ndarray:
+        """Uniform over the take-off disc at the flight altitude, at rest."""
+        return disc_states(
+            n_robots,
+            self.start_center_m,
+            self.start_radius_m,
+            self.altitude_m,
+            rng,
+            self.state_dim,
+        )
+
+    def swarm_metrics(self, states: np.ndarray, previous: np.ndarray | None) -> dict[str, float]:
+        """``coverage``: the ROI's expected best signal, dBm."""
+        return {"coverage": self._coverage().coverage(states)}
+
+    def summary(self, times: np.ndarray, swarm: dict[str, np.ndarray]) -> dict[str, Any]:
+        """Coverage at the first and the last stage, dBm."""
+        cov = swarm.get("coverage", np.zeros(0))
+        first, last = (float(cov[0]), float(cov[-1])) if len(cov) else (None, None)
+        return {"coverage_start_dbm": first, "coverage_end_dbm": last}
+
+    def draw(self, ax) -> None:
+        """Shade the ROI density and outline its concentration ellipse."""
+        from swarmgames.missions.coverage.plots import draw_roi
+
+        draw_roi(ax, self.roi)
+
+    def extent(self) -> tuple[float, float, float, float]:
+        """The ROI's bounding box ``(xmin, xmax, ymin, ymax)``, metres."""
+        return self.roi.bounding_box()
+
+    def _coverage(self) -> CoveragePotentials:
+        pot = self.potentials
+        return pot.potentials if isinstance(pot, Inertia) else pot
+
+
+def build(config) -> CoverageMission:
+    """The coverage mission of a :class:`~swarmgames.config.ScenarioConfig`.
+
+    Raises
+    ------
+    ConfigError
+        A combination of ``[coverage]`` and ``[game]`` the potentials cannot use (the message
+        names the fields).
+    """
+    cov: CoverageConfig = config.mission
+    signal = SignalModel(cov.t0_dbm, cov.l0_db, cov.path_exponent, cov.reference_distance_m)
+    try:
+        roi = GaussianROI(cov.roi_mean_m, cov.roi_cov_m2, cov.confidence, cov.grid_cell_m)
+        base = CoveragePotentials(
+            roi,
+            signal,
+            softness_db=cov.softness_db,
+            separation_m=cov.separation_m,
+            separation_cost_db=cov.separation_cost_db,
+            signal_floor_dbm=cov.signal_floor_dbm,
+            workers=cov.workers,
+            separation_mode=cov.separation_mode,
+            alpha_b=config.game.alpha_b,
+        )
+    except ValueError as exc:
+        raise ConfigError(f"coverage: {exc}") from None
+    potentials = Inertia(base, cov.move_cost_db * roi.mass) if cov.move_cost_db else base
+    sw = config.swarm
+    bounds = arena_for(roi, sw.start_center_m, sw.start_radius_m, sw.arena_margin_m)
+    return CoverageMission(
+        potentials=potentials,
+        action_model=uav_actions(sw, config.sim.control_period_s, bounds),
+        roi=roi,
+        start_center_m=tuple(sw.start_center_m),
+        start_radius_m=sw.start_radius_m,
+        altitude_m=sw.altitude_m,
+    )
+
+
+#: The registry entry of the built-in ``coverage`` mission.
+ENTRY = MissionEntry(
+    name="coverage",
+    config=CoverageConfig,
+    build=build,
+    description="communication-aware coverage of a Gaussian region of interest (the paper's)",
+)

@@ -1,0 +1,83 @@
+"""The mission protocol: what the simulation needs from a mission, and nothing more.
+
+A mission is data plus potentials. It never drives the stage loop; the loop
+(:mod:`swarmgames.sim.loop`) asks it only for what :class:`Mission` declares:
+
+* ``potentials`` and ``action_model``: the stage game's payoff (paper eq. 1, see
+  :class:`~swarmgames.game.potentials.Potentials`) and its discrete action set
+  (:class:`~swarmgames.game.actions.ActionModel`);
+* ``state_dim`` and ``initial_states(n_robots, rng)``: the robots' states, D columns whose
+  first three are the position (x, y, z) in metres (the network sees only those);
+* ``swarm_metrics(states, previous)``: the mission's per-stage figures, name → float (the
+  columns that follow ``mean_payoff`` in ``swarm.csv``, e.g. ``coverage`` in dBm).
+
+Optional hooks, used when present (:func:`~swarmgames.missions.conformance.check_mission`
+checks them too):
+
+* ``robot_metrics(states) -> {name: (N,) array}``: extra columns of ``metrics.csv``;
+* ``summary(times, swarm) -> {name: value}``: headline figures for ``summary.json`` from the
+  per-stage metrics (``swarm`` maps every ``swarm.csv`` column to an ``(S,)`` array);
+* ``draw(ax)``: draw the mission's background (a region, a goal) on a matplotlib Axes, under
+  the robots of ``paths.png`` and of every animation frame;
+* ``extent() -> (xmin, xmax, ymin, ymax)``: the area plots keep in view, metres;
+* ``density``: an object with ``points (G, 2)``, ``weights (G,)`` and ``mean (2,)``, a density
+  over the plane for the Lloyd/Voronoi baseline controller (``sim.controller = "lloyd"``).
+
+A mission registered by name (:mod:`swarmgames.missions.registry`) also brings its own
+configuration section, the ``[name]`` table of a scenario file.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from swarmgames.game.actions import ActionModel
+from swarmgames.game.potentials import Potentials
+
+__all__ = ["OPTIONAL_HOOKS", "Mission"]
+
+#: Optional methods and attributes of a mission (see the module docstring).
+OPTIONAL_HOOKS = ("robot_metrics", "summary", "draw", "extent", "density")
+
+
+@runtime_checkable
+class Mission(Protocol):
+    """What a mission offers the simulation.
+
+    Attributes
+    ----------
+    name : str
+        The mission's name (in plots and ``summary.json``).
+    potentials : Potentials
+        Unary and pairwise potentials of eq. 1, vectorised over a batch of local games.
+    action_model : ActionModel
+        The robots' discrete action set; ``apply`` maps ``(..., D)`` states to
+        ``(..., A, D)`` next states.
+    state_dim : int
+        D, the number of state columns (>= 3; the first three are x, y, z in metres).
+
+    Examples
+    --------
+    >>> from swarmgames.missions import get_mission
+    >>> from swarmgames.config import ScenarioConfig
+    >>> mission = get_mission("coverage").build(ScenarioConfig())
+    >>> isinstance(mission, Mission), mission.state_dim
+    (True, 3)
+    """
+
+    name: str
+    potentials: Potentials
+    action_model: ActionModel
+    state_dim: int
+
+    def initial_states(self, n_robots: int, rng: np.random.Generator) -> np.ndarray:
+        """States of ``n_robots`` robots at the start, shape ``(n_robots, state_dim)``; every
+        random draw from ``rng``."""
+        ...
+
+    def swarm_metrics(self, states: np.ndarray, previous: np.ndarray | None) -> dict[str, float]:
+        """The mission's figures at one stage, from the states ``(N, D)`` at the stage and
+        those of the stage before (``None`` at the first stage)."""
+        ...

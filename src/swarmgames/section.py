@@ -1,0 +1,29 @@
+"""The base of every validated configuration section.
+
+Configuration sections are pydantic models that are immutable and reject unknown keys. The
+scenario schema (:mod:`swarmgames.config.schema`) builds its sections on :class:`Section`, and
+so does every mission's own section (:mod:`swarmgames.missions`): a plug-in's ``[mymission]``
+table is validated by the same rules and reported in the same one-line-per-problem form as
+the built-in ones.
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict
+
+__all__ = ["Section"]
+
+
+class Section(BaseModel):
+    """A configuration section: immutable, strict about unknown keys, defaults validated.
+
+    Examples
+    --------
+    >>> from pydantic import Field
+    >>> class Goal(Section):
+    ...     radius_m: float = Field(10.0, gt=0, description="Gathering radius, metres.")
+    >>> Goal().radius_m
+    10.0
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
