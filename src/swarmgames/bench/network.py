@@ -18,7 +18,7 @@ from swarmgames.network.olsr.provider import OlsrProvider
 from swarmgames.network.oracle import OracleProvider
 from swarmgames.network.replay import replay
 from swarmgames.network.trace import PositionTrace
-from swarmgames.network.validation import as_generator
+from swarmgames.rng import as_generator
 
 __all__ = ["bench_olsr_advance", "bench_oracle", "bench_replay", "random_swarm"]
 

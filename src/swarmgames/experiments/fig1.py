@@ -30,7 +30,7 @@ import pandas as pd
 from swarmgames.config import NetworkConfig
 from swarmgames.network.factory import make_provider
 from swarmgames.network.propagation import max_range
-from swarmgames.network.validation import as_generator
+from swarmgames.rng import as_generator
 
 __all__ = ["Fig1Result", "break_points", "fig1_positions", "reproduce_fig1"]
 

@@ -45,7 +45,7 @@ from swarmgames.network.propagation import new_shadowing_key
 from swarmgames.network.provider import NeighbourhoodProvider
 from swarmgames.network.replay import replay
 from swarmgames.network.trace import PositionTrace, read_positions
-from swarmgames.network.validation import as_generator
+from swarmgames.rng import as_generator
 
 __all__ = ["CompareResult", "compare"]
 

@@ -15,7 +15,7 @@ from swarmgames.network.links import LinkGraph, link_graph
 from swarmgames.network.olsr.tables import sorted_contains
 from swarmgames.network.propagation import channel_model
 from swarmgames.network.topology import TopologySnapshot
-from swarmgames.network.validation import as_generator
+from swarmgames.rng import as_generator
 
 __all__ = ["OracleProvider", "bfs_hops", "sparse_bfs_routes"]
 

@@ -1,19 +1,10 @@
-"""Boundary checks shared by the network providers: positions, times, seeds."""
+"""Boundary checks shared by the network providers: positions and times."""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["as_generator", "check_positions", "check_time"]
-
-
-def as_generator(seed: int | np.random.Generator | None) -> np.random.Generator:
-    """Normalise ``seed`` (int, Generator or None) to a ``numpy.random.Generator``, once."""
-    if isinstance(seed, np.random.Generator):
-        return seed
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))):
-        raise TypeError(f"seed must be an int, a numpy Generator or None (got {seed!r})")
-    return np.random.default_rng(seed)
+__all__ = ["check_positions", "check_time"]
 
 
 def check_positions(positions: np.ndarray, n_nodes: int | None = None) -> np.ndarray:

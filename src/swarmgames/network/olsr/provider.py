@@ -9,7 +9,8 @@ from swarmgames.network.links import link_graph
 from swarmgames.network.olsr.engine import OlsrEngine
 from swarmgames.network.propagation import channel_model
 from swarmgames.network.topology import TopologySnapshot
-from swarmgames.network.validation import as_generator, check_positions, check_time
+from swarmgames.network.validation import check_positions, check_time
+from swarmgames.rng import as_generator
 
 __all__ = ["OlsrProvider"]
 
