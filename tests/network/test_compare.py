@@ -16,7 +16,7 @@ from swarmgames.errors import ConfigError, InputDataError, RunFolderError
 from swarmgames.network.compare import compare
 from swarmgames.network.oracle import OracleProvider
 from swarmgames.network.recorded import RecordedProvider, read_recording
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data", "ns3")
 

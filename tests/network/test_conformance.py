@@ -11,7 +11,7 @@ from swarmgames.network.conformance import (
     check_snapshot,
 )
 from swarmgames.network.factory import make_provider
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 
 @pytest.mark.parametrize("backend", ["olsr", "oracle", "disk", "knn"])

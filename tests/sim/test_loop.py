@@ -44,7 +44,7 @@ def test_partitioned_swarm():
 
 
 def test_graph_stats_of_partition():
-    from swarmgames.network.topology import TopologySnapshot
+    from swarmgames.topology import TopologySnapshot
 
     hops = np.array([[0, 1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 1], [0, 0, 1, 0]])
     mean_h, max_h, comps, edges = swarm_graph_stats(TopologySnapshot.from_hop_matrix(0.0, hops))

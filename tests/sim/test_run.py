@@ -9,11 +9,11 @@ import pytest
 
 from swarmgames.config import ScenarioConfig, parse_config
 from swarmgames.errors import ConfigError, RunFolderError
-from swarmgames.network.topology import TopologySnapshot
 from swarmgames.runfolder import RunFolder
 from swarmgames.sim import build_mission, run
 from swarmgames.sim.controllers import GameController
 from swarmgames.sim.result import METRICS_COLUMNS, SWARM_COLUMNS, TRAJECTORY_COLUMNS
+from swarmgames.topology import TopologySnapshot
 
 from .conftest import DiskOracle
 

@@ -236,7 +236,7 @@ def bench_stage(
     from swarmgames.game.potentials import FunctionPotentials
     from swarmgames.game.solvers import MeanFieldSolver
     from swarmgames.game.stage import solve_stage
-    from swarmgames.network.topology import TopologySnapshot
+    from swarmgames.topology import TopologySnapshot
 
     rng = np.random.default_rng(seed)
     # Area such that a disc of radius 0.8 h radius_m holds ~mean_neighbours robots (the

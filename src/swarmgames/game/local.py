@@ -32,7 +32,7 @@ import numpy as np
 from swarmgames.game.actions import ActionModel, action_mask_of
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.virtual import neighbourhood_means, reaches_outside
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 __all__ = [
     "LocalView",

@@ -30,7 +30,7 @@ from swarmgames.game.local import (
 )
 from swarmgames.game.potentials import Potentials, evaluate_payoffs
 from swarmgames.game.solvers import GameSolution, Solver, normalise_rng, sample_actions
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["StageSolution", "size_groups", "solve_stage", "stage_regret"]
 

@@ -8,8 +8,8 @@ from swarmgames.network.olsr.provider import OlsrProvider
 from swarmgames.network.oracle import OracleProvider
 from swarmgames.network.propagation import PropagationModel, max_range
 from swarmgames.network.provider import NeighbourhoodProvider
-from swarmgames.network.topology import TopologySnapshot
 from swarmgames.network.trace import PositionTrace, read_positions
+from swarmgames.topology import TopologySnapshot
 
 __all__ = [
     "BACKENDS",

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from swarmgames.network.topology import TopologySnapshot
 from swarmgames.network.validation import check_positions, check_time
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["DiskProvider", "KnnProvider"]
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["ProviderConformanceError", "check_provider", "check_snapshot"]
 

@@ -57,9 +57,9 @@ from swarmgames.config import NetworkConfig, OlsrConfig, RadioConfig
 from swarmgames.errors import ConfigError
 from swarmgames.network.ns3_import import load_ns3, quiet_stderr
 from swarmgames.network.propagation import new_shadowing_key, pair_gaussians
-from swarmgames.network.topology import TopologySnapshot
 from swarmgames.network.validation import check_positions, check_time
 from swarmgames.rng import as_generator
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["Ns3Provider", "check_ns3_config"]
 

@@ -14,8 +14,8 @@ from swarmgames.network.baselines import _InstantProvider
 from swarmgames.network.links import LinkGraph, link_graph
 from swarmgames.network.olsr.tables import sorted_contains
 from swarmgames.network.propagation import channel_model
-from swarmgames.network.topology import TopologySnapshot
 from swarmgames.rng import as_generator
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["OracleProvider", "bfs_hops", "sparse_bfs_routes"]
 

@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from swarmgames.errors import InputDataError
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["RecordedProvider", "Recording", "read_recording"]
 

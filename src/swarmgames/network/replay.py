@@ -21,8 +21,8 @@ from scipy.sparse import csgraph
 from swarmgames.config import NetworkConfig
 from swarmgames.network.factory import make_provider
 from swarmgames.network.provider import NeighbourhoodProvider
-from swarmgames.network.topology import TopologySnapshot
 from swarmgames.network.trace import PositionTrace, read_positions
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["ReplayResult", "replay", "summarise"]
 

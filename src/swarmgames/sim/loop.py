@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from scipy.sparse import csgraph, csr_array
 
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["StageLog", "run_stages", "start_positions", "swarm_graph_stats"]
 

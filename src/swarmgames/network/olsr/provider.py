@@ -8,9 +8,9 @@ from swarmgames.config import OlsrConfig, RadioConfig
 from swarmgames.network.links import link_graph
 from swarmgames.network.olsr.engine import OlsrEngine
 from swarmgames.network.propagation import channel_model
-from swarmgames.network.topology import TopologySnapshot
 from swarmgames.network.validation import check_positions, check_time
 from swarmgames.rng import as_generator
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["OlsrProvider"]
 
