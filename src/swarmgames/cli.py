@@ -21,6 +21,7 @@ from swarmgames.errors import (
     RunFolderError,
     SwarmgamesError,
 )
+from swarmgames.network.factory import BACKENDS
 
 __all__ = ["cli", "main"]
 
@@ -270,8 +271,6 @@ def reproduce(
 def network() -> None:
     """Replay position traces through the network layer and compare backends."""
 
-
-BACKENDS = ("olsr", "oracle", "disk", "knn", "ns3")
 
 positions_option = click.option(
     "--positions",

@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 
-from swarmgames.config import NetworkConfig
 from swarmgames.network.baselines import DiskProvider, KnnProvider
 from swarmgames.network.conformance import (
     ProviderConformanceError,
@@ -17,10 +16,10 @@ from swarmgames.topology import TopologySnapshot
 @pytest.mark.parametrize("backend", ["olsr", "oracle", "disk", "knn"])
 @pytest.mark.parametrize("full_tables", [False, True])
 def test_builtin_providers_conform(backend, full_tables):
-    cfg = NetworkConfig(backend=backend, knn_k=1)
     # knn has no notion of range: its isolated robot still has k neighbours.
     check_provider(
-        make_provider(cfg, 6, seed=0, full_tables=full_tables), range_limited=backend != "knn"
+        make_provider(backend, 6, 0, knn_k=1, full_tables=full_tables),
+        range_limited=backend != "knn",
     )
 
 

@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 
-from swarmgames.config import NetworkConfig
 from swarmgames.errors import BackendUnavailableError
 from swarmgames.network import NeighbourhoodProvider
 from swarmgames.network.baselines import DiskProvider, KnnProvider
@@ -11,13 +10,14 @@ from swarmgames.network.factory import make_provider
 from swarmgames.network.links import link_graph
 from swarmgames.network.olsr.provider import OlsrProvider
 from swarmgames.network.oracle import OracleProvider, bfs_hops, sparse_bfs_routes
+from swarmgames.network.parameters import OlsrParameters
 
 LINE = np.c_[np.arange(4) * 300.0, np.zeros(4), np.zeros(4)]
 
 
 @pytest.mark.parametrize("backend", ["olsr", "oracle", "disk", "knn"])
 def test_factory_builds_conforming_providers(backend):
-    p = make_provider(NetworkConfig(backend=backend), 4, seed=0)
+    p = make_provider(backend, 4, 0)
     assert isinstance(p, NeighbourhoodProvider)
     assert p.name == backend
     snap = p.reset(LINE, 1.0)
@@ -28,16 +28,16 @@ def test_factory_builds_conforming_providers(backend):
 
 
 def test_factory_hello_only_auto_follows_h():
-    # OlsrConfig.hello_only = 'auto': HELLO-only when h <= 2.
-    assert make_provider(NetworkConfig(hops=2), 3).hello_only
-    assert not make_provider(NetworkConfig(hops=3), 3).hello_only
-    assert not make_provider(NetworkConfig(hops=2), 3, full_tables=True).hello_only
-    assert not make_provider(NetworkConfig(olsr={"hello_only": False}), 3).hello_only
+    # OlsrParameters.hello_only = 'auto': HELLO-only when h <= 2.
+    assert make_provider("olsr", 3, hops=2).hello_only
+    assert not make_provider("olsr", 3, hops=3).hello_only
+    assert not make_provider("olsr", 3, hops=2, full_tables=True).hello_only
+    assert not make_provider("olsr", 3, olsr=OlsrParameters(hello_only=False)).hello_only
 
 
 def test_factory_oracle_keeps_what_n_i_h_needs():
-    assert make_provider(NetworkConfig(backend="oracle", hops=2), 4).reset(LINE).hops.max() == 2
-    full = make_provider(NetworkConfig(backend="oracle", hops=2), 4, full_tables=True)
+    assert make_provider("oracle", 4, hops=2).reset(LINE).hops.max() == 2
+    full = make_provider("oracle", 4, hops=2, full_tables=True)
     assert full.reset(LINE).hops.max() == 3
 
 
@@ -46,7 +46,7 @@ def test_ns3_backend_is_lazy_and_reports_absence():
         import swarmgames.network.ns3_backend  # noqa: F401
     except ImportError:
         with pytest.raises(BackendUnavailableError, match="ns3"):
-            make_provider(NetworkConfig(backend="ns3"), 3)
+            make_provider("ns3", 3)
     else:  # pragma: no cover - when the ns-3 backend is installed
         pytest.skip("ns-3 backend installed")
 

@@ -18,10 +18,10 @@ from typing import Any
 import numpy as np
 
 from swarmgames.config import ScenarioConfig
-from swarmgames.network.factory import make_provider
 from swarmgames.scenarios.scaling import scaled_config
 from swarmgames.sim.controllers import GameController
 from swarmgames.sim.loop import start_positions
+from swarmgames.sim.providers import provider_from_config
 from swarmgames.sim.runner import build_mission
 
 __all__ = ["StageBench", "StageParts"]
@@ -90,7 +90,7 @@ class StageBench:
         self.positions = start_positions(
             sw.n_robots, sw.start_center_m, sw.start_radius_m, sw.altitude_m, rng_start
         )
-        self.provider: Any = make_provider(self.config.network, sw.n_robots, rng_net)
+        self.provider: Any = provider_from_config(self.config.network, sw.n_robots, rng_net)
         self.provider.reset(self.positions, 0.0)
         self.time = sim.warmup_s
         self.snapshot = self.provider.advance(self.time, self.positions)

@@ -40,12 +40,13 @@ import pandas as pd
 
 from swarmgames.config import NetworkConfig
 from swarmgames.errors import ConfigError
-from swarmgames.network.factory import BACKENDS, make_provider
+from swarmgames.network.factory import BACKENDS
 from swarmgames.network.propagation import new_shadowing_key
 from swarmgames.network.provider import NeighbourhoodProvider
 from swarmgames.network.replay import replay
 from swarmgames.network.trace import PositionTrace, read_positions
 from swarmgames.rng import as_generator
+from swarmgames.sim.providers import provider_from_config
 
 __all__ = ["CompareResult", "compare"]
 
@@ -310,7 +311,7 @@ def compare(
             cfg = (config or NetworkConfig()).model_copy(update={"backend": backend})
             child = np.random.default_rng(rng.integers(2**63))
             # OLSR with TCs, as replay builds it, so that routes of any length are compared.
-            backend = make_provider(
+            backend = provider_from_config(
                 cfg, trace.n_nodes, child, full_tables=True, shadowing_key=channel
             )
         start = _time.perf_counter()

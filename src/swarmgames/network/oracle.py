@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.sparse import csgraph
 
-from swarmgames.config import RadioConfig
 from swarmgames.network.baselines import _InstantProvider
 from swarmgames.network.links import LinkGraph, link_graph
 from swarmgames.network.olsr.tables import sorted_contains
+from swarmgames.network.parameters import RadioParameters
 from swarmgames.network.propagation import channel_model
 from swarmgames.rng import as_generator
 from swarmgames.topology import TopologySnapshot
@@ -121,7 +121,7 @@ class OracleProvider(_InstantProvider):
     ----------
     n_nodes : int
         Number of robots.
-    radio : RadioConfig, optional
+    radio : RadioParameters, optional
         Propagation and reception model.
     max_hops : int, optional
         Keep only routes of at most this many hops (N_i(h) needs no more). With more than
@@ -146,7 +146,7 @@ class OracleProvider(_InstantProvider):
     def __init__(
         self,
         n_nodes: int,
-        radio: RadioConfig | None = None,
+        radio: RadioParameters | None = None,
         max_hops: int | None = None,
         seed: int | np.random.Generator | None = None,
         shadowing_key: int | None = None,
@@ -154,7 +154,7 @@ class OracleProvider(_InstantProvider):
         super().__init__(n_nodes)
         self.max_hops = max_hops
         self._rng = as_generator(seed)
-        self.model = channel_model(radio or RadioConfig(), self._rng, shadowing_key)
+        self.model = channel_model(radio or RadioParameters(), self._rng, shadowing_key)
 
     def _snapshot(self, pos: np.ndarray) -> TopologySnapshot:
         g = link_graph(pos, self.model, self._rng)

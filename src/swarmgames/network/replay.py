@@ -19,9 +19,9 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from swarmgames.config import NetworkConfig
-from swarmgames.network.factory import make_provider
 from swarmgames.network.provider import NeighbourhoodProvider
 from swarmgames.network.trace import PositionTrace, read_positions
+from swarmgames.sim.providers import provider_from_config
 from swarmgames.topology import TopologySnapshot
 
 __all__ = ["ReplayResult", "replay", "summarise"]
@@ -170,7 +170,7 @@ def replay(
         raise ValueError(f"end must be >= the trace start {trace.start} (got {end})")
     if isinstance(provider, str):
         cfg = (config or NetworkConfig()).model_copy(update={"backend": provider})
-        provider = make_provider(cfg, trace.n_nodes, seed, full_tables=True)
+        provider = provider_from_config(cfg, trace.n_nodes, seed, full_tables=True)
     samples = _sample_times(trace.start, stop, float(sample_every))
     changes = trace.times[(trace.times > trace.start) & (trace.times <= stop)]
     breaks = np.union1d(samples, changes)

@@ -137,9 +137,9 @@ def run(
         extra = np.zeros((sw.n_robots, model.state_dim - 3))
         positions = np.hstack([positions, extra])
     if provider is None:
-        from swarmgames.network.factory import make_provider
+        from swarmgames.sim.providers import provider_from_config
 
-        provider = make_provider(config.network, sw.n_robots, rng_net)
+        provider = provider_from_config(config.network, sw.n_robots, rng_net)
     ctrl_cls = GameController if sim.controller == "game" else LloydController
     controller = ctrl_cls(config, potentials, model)
     n_stages = max(1, int(np.floor(sim.duration_s / sim.control_period_s + 1e-9)))

@@ -46,12 +46,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmgames.config import OlsrConfig
 from swarmgames.network.links import LinkGraph
 from swarmgames.network.olsr import tables
 from swarmgames.network.olsr.mpr import select_mprs
 from swarmgames.network.olsr.routing import compute_routes
 from swarmgames.network.olsr.tables import KeyedTable, KeySet, first_per_key, sorted_contains
+from swarmgames.network.parameters import OlsrParameters
 
 __all__ = ["OlsrEngine"]
 
@@ -76,7 +76,7 @@ class OlsrEngine:
     ----------
     n_nodes : int
         Number of nodes.
-    olsr : OlsrConfig
+    olsr : OlsrParameters
         Intervals, jitter, hold times, willingness.
     rng : numpy Generator
         Source of the message jitter.
@@ -89,7 +89,7 @@ class OlsrEngine:
     def __init__(
         self,
         n_nodes: int,
-        olsr: OlsrConfig,
+        olsr: OlsrParameters,
         rng: np.random.Generator,
         hello_only: bool = False,
         start_time: float = 0.0,

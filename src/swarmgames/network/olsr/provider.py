@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmgames.config import OlsrConfig, RadioConfig
 from swarmgames.network.links import link_graph
 from swarmgames.network.olsr.engine import OlsrEngine
+from swarmgames.network.parameters import OlsrParameters, RadioParameters
 from swarmgames.network.propagation import channel_model
 from swarmgames.network.validation import check_positions, check_time
 from swarmgames.rng import as_generator
@@ -22,9 +22,9 @@ class OlsrProvider:
     ----------
     n_nodes : int
         Number of robots.
-    radio : RadioConfig, optional
+    radio : RadioParameters, optional
         Propagation and reception (default: ns-3 defaults, range 368.84 m).
-    olsr : OlsrConfig, optional
+    olsr : OlsrParameters, optional
         OLSR timing (default: ns-3 defaults).
     hello_only : bool, default False
         Send no TC messages: routing tables then hold at most 2 hops, which is all N_i(h) needs
@@ -55,8 +55,8 @@ class OlsrProvider:
     def __init__(
         self,
         n_nodes: int,
-        radio: RadioConfig | None = None,
-        olsr: OlsrConfig | None = None,
+        radio: RadioParameters | None = None,
+        olsr: OlsrParameters | None = None,
         hello_only: bool = False,
         seed: int | np.random.Generator | None = None,
         shadowing_key: int | None = None,
@@ -64,7 +64,7 @@ class OlsrProvider:
         if int(n_nodes) < 1:
             raise ValueError(f"n_nodes must be >= 1 (got {n_nodes})")
         self.n_nodes = int(n_nodes)
-        self.olsr = olsr or OlsrConfig()
+        self.olsr = olsr or OlsrParameters()
         if self.olsr.max_jitter_s >= self.olsr.hello_interval_s:
             # Each HELLO round must be on the air before the next is built (ns-3: jitter is a
             # quarter of the HELLO interval).
@@ -74,7 +74,7 @@ class OlsrProvider:
             )
         self.hello_only = bool(hello_only)
         self._rng = as_generator(seed)
-        self.model = channel_model(radio or RadioConfig(), self._rng, shadowing_key)
+        self.model = channel_model(radio or RadioParameters(), self._rng, shadowing_key)
         self._engine: OlsrEngine | None = None
         self._time = 0.0
 
