@@ -314,7 +314,7 @@ def replay(
     --set network.radio.tx_power_dbm=20.
     """
     from swarmgames.config import resolve_scenario
-    from swarmgames.network.replay import replay as replay_trace
+    from swarmgames.experiments.replay import replay as replay_trace
     from swarmgames.network.trace import read_positions
 
     cfg = resolve_scenario(None, overrides).network
@@ -375,7 +375,7 @@ def compare(
     agreement.png and summary.json.
     """
     from swarmgames.config import resolve_scenario
-    from swarmgames.network.compare import compare as compare_backends
+    from swarmgames.experiments.compare import compare as compare_backends
     from swarmgames.network.trace import read_positions
 
     names = [b.strip() for b in backends.split(",") if b.strip()]

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from swarmgames.errors import BackendUnavailableError, ConfigError
+from swarmgames.experiments.compare import compare
 from swarmgames.network import ns3_import
-from swarmgames.network.compare import compare
 from swarmgames.network.factory import make_provider
 from swarmgames.network.ns3_backend import check_ns3_config
 from swarmgames.network.oracle import OracleProvider
@@ -283,7 +283,7 @@ def test_recorder_reproduces_committed_static_recording(ns3, tmp_path):
 
 @pytest.mark.ns3
 def test_replay_and_compare_by_name_match_the_recorded_ns3_run(ns3):
-    from swarmgames.network.replay import replay
+    from swarmgames.experiments.replay import replay
 
     rec = read_recording(os.path.join(DATA, "hex_expand"))
     trace = PositionTrace.from_frame(rec.positions)

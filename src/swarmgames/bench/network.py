@@ -14,9 +14,9 @@ import time
 import numpy as np
 import pandas as pd
 
+from swarmgames.experiments.replay import replay
 from swarmgames.network.olsr.provider import OlsrProvider
 from swarmgames.network.oracle import OracleProvider
-from swarmgames.network.replay import replay
 from swarmgames.network.trace import PositionTrace
 from swarmgames.rng import as_generator
 
@@ -98,7 +98,7 @@ def bench_replay(
     mean_degree: float = 10.0,
     speed_mps: float = 5.0,
 ) -> dict:
-    """Wall time of :func:`~swarmgames.network.replay.replay` on a synthetic trace (random
+    """Wall time of :func:`~swarmgames.experiments.replay.replay` on a synthetic trace (random
     square layout drifting at ``speed_mps``, a row per node every ``dt`` seconds)."""
     rng = as_generator(seed)
     pos = random_swarm(n_nodes, mean_degree, seed=rng)

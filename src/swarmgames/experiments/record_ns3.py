@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from swarmgames.network.replay import replay
+from swarmgames.experiments.replay import replay
 from swarmgames.network.trace import PositionTrace
 
 __all__ = ["SCENARIOS", "hex_expand", "main", "random_waypoint", "record", "static_layout"]

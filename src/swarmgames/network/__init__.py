@@ -28,6 +28,3 @@ __all__ = [
     "max_range",
     "read_positions",
 ]
-
-# ``replay`` and ``ReplayResult`` live in :mod:`swarmgames.network.replay`; they are not
-# re-exported here so that the function does not shadow its module.

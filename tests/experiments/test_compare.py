@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from swarmgames.errors import ConfigError, InputDataError, RunFolderError
-from swarmgames.network.compare import compare
+from swarmgames.experiments.compare import compare
 from swarmgames.network.oracle import OracleProvider
 from swarmgames.network.recorded import RecordedProvider, read_recording
 from swarmgames.topology import TopologySnapshot

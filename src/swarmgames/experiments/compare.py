@@ -40,10 +40,10 @@ import pandas as pd
 
 from swarmgames.config import NetworkConfig
 from swarmgames.errors import ConfigError
+from swarmgames.experiments.replay import replay
 from swarmgames.network.factory import BACKENDS
 from swarmgames.network.propagation import new_shadowing_key
 from swarmgames.network.provider import NeighbourhoodProvider
-from swarmgames.network.replay import replay
 from swarmgames.network.trace import PositionTrace, read_positions
 from swarmgames.rng import as_generator
 from swarmgames.sim.providers import provider_from_config
@@ -244,7 +244,7 @@ def compare(
         Positions trace (``t, node, x, y, z``; a row holds from ``t`` until the node's next row).
     backends : sequence of str or NeighbourhoodProvider
         At least two; names (``olsr``, ``oracle``, ``disk``, ``knn``, ``ns3``) are built from
-        ``config`` by :func:`~swarmgames.network.factory.make_provider`. The
+        ``config`` by :func:`~swarmgames.sim.providers.provider_from_config`. The
         first is the reference the others are compared with. Backends run one after the other,
         so two ns-3 providers (two seeds) can be compared in one process.
     sample_every : float, default 0.5
