@@ -332,7 +332,7 @@ def replay(
         )
     s = res.summary
     click.echo(
-        f"{backend}: {trace.n_nodes} robots, {len(s)} samples, {len(res.hops)} routes; "
+        f"{backend}: {trace.n_robots} robots, {len(s)} samples, {len(res.hops)} routes; "
         f"mean degree {s['mean_degree'].mean():.3f}, mean hops {s['mean_hops'].mean():.3f} "
         f"-> {folder.path}/"
     )
@@ -395,7 +395,7 @@ def compare(
     summary = res.summary()
     from rich.table import Table
 
-    table = Table(title=f"agreement with {summary['reference']} ({trace.n_nodes} robots)")
+    table = Table(title=f"agreement with {summary['reference']} ({trace.n_robots} robots)")
     for col in ("backend", "all entries", "within 2 hops", "entries", "wall time (s)"):
         table.add_column(col, justify="right")
     for name in names:

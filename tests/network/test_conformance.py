@@ -42,11 +42,11 @@ def test_broken_provider_is_caught():
 def test_snapshot_rules():
     ok = TopologySnapshot(0.0, 3, [0, 1], [1, 0], [1, 1], [1, 0])
     check_snapshot(ok, 3, 0.0)
-    with pytest.raises(ProviderConformanceError, match="n_nodes=3, expected 4"):
+    with pytest.raises(ProviderConformanceError, match="n_robots=3, expected 4"):
         check_snapshot(ok, 4, 0.0)
     with pytest.raises(ProviderConformanceError, match="route to itself"):
         check_snapshot(TopologySnapshot(0.0, 3, [0], [0], [1]), 3, 0.0)
     with pytest.raises(ProviderConformanceError, match="next hop must be a 1-hop neighbour"):
         check_snapshot(TopologySnapshot(0.0, 3, [0], [2], [2], [2]), 3, 0.0)
-    with pytest.raises(ValueError, match="n_nodes must be >= 3"):
-        check_provider(DiskProvider(2), n_nodes=2)
+    with pytest.raises(ValueError, match="n_robots must be >= 3"):
+        check_provider(DiskProvider(2), n_robots=2)

@@ -215,7 +215,7 @@ def test_a_provider_whose_simulator_was_taken_over_refuses_to_run(ns3):
     b.reset(line(4, 100.0))
     with pytest.raises(RuntimeError, match="destroyed"):
         a.advance(5.0, line(3, 100.0))
-    assert b.advance(5.0, line(4, 100.0)).n_nodes == 4
+    assert b.advance(5.0, line(4, 100.0)).n_robots == 4
 
 
 @pytest.mark.ns3
@@ -242,7 +242,7 @@ def test_time_offset_and_bad_calls(ns3):
 def test_static_layouts_equal_bfs_after_30s(ns3, name):
     # REFERENCE.md section 4: after settling, ns-3 hop counts equal BFS on the 368.84 m disk graph
     rec = read_recording(os.path.join(DATA, name))
-    result = compare(rec.positions, [OracleProvider(rec.n_nodes), ns3(seed=8)], 5.0, warmup_s=30.0)
+    result = compare(rec.positions, [OracleProvider(rec.n_robots), ns3(seed=8)], 5.0, warmup_s=30.0)
     assert result.agreement() == 1.0
 
 

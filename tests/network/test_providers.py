@@ -23,7 +23,7 @@ def test_factory_builds_conforming_providers(backend):
     snap = p.reset(LINE, 1.0)
     assert p.time == 1.0 and snap.time == 1.0
     snap = p.advance(31.0, LINE)
-    assert snap.n_nodes == 4 and p.time == 31.0
+    assert snap.n_robots == 4 and p.time == 31.0
     assert (snap.owner != snap.dest).all()
 
 
@@ -106,7 +106,7 @@ def test_bad_provider_arguments():
         DiskProvider(3, radius=-1.0)
     with pytest.raises(ValueError, match="k must be >= 1"):
         KnnProvider(3, k=0)
-    with pytest.raises(ValueError, match="n_nodes must be >= 1"):
+    with pytest.raises(ValueError, match="n_robots must be >= 1"):
         OracleProvider(0)
     with pytest.raises(ValueError, match=r"positions must have shape \(N, 3\)"):
         OracleProvider(2).reset(np.zeros(3))

@@ -66,7 +66,7 @@ class CompareResult:
     ----------
     backends : tuple of str
         Labels of the backends, reference first (repeated names get ``#2``, ``#3``...).
-    n_nodes : int
+    n_robots : int
         Number of robots.
     sample_times : ndarray, shape (S,)
         Sample times, seconds.
@@ -88,7 +88,7 @@ class CompareResult:
     """
 
     backends: tuple[str, ...]
-    n_nodes: int
+    n_robots: int
     sample_times: np.ndarray
     start_time: float
     warmup_s: float
@@ -122,7 +122,7 @@ class CompareResult:
         return {
             "reference": self.reference,
             "backends": list(self.backends),
-            "n_nodes": self.n_nodes,
+            "n_nodes": self.n_robots,
             "n_samples": int(self.sample_times.size),
             "sample_every_s": float(np.diff(self.sample_times[:2])[0])
             if self.sample_times.size > 1
@@ -312,7 +312,7 @@ def compare(
             child = np.random.default_rng(rng.integers(2**63))
             # OLSR with TCs, as replay builds it, so that routes of any length are compared.
             backend = provider_from_config(
-                cfg, trace.n_nodes, child, full_tables=True, shadowing_key=channel
+                cfg, trace.n_robots, child, full_tables=True, shadowing_key=channel
             )
         start = _time.perf_counter()
         result = replay(trace, backend, sample_every)
@@ -322,7 +322,7 @@ def compare(
 
     t0 = float(trace.times[0])
     per_rows, conf_rows = [], []
-    n = trace.n_nodes
+    n = trace.n_robots
     for label in labels[1:]:
         per, t, a, b = _pair(hops[labels[0]], hops[label], samples, n)
         per.insert(0, "backend", label)

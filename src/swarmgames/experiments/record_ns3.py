@@ -129,7 +129,7 @@ def record(name: str, out: Path, run: int = 1) -> Path:
     factory, sample = SCENARIOS[name]
     positions = factory()
     trace = PositionTrace.from_frame(positions)
-    provider = Ns3Provider(n_nodes=trace.n_nodes, run=run)
+    provider = Ns3Provider(n_robots=trace.n_robots, run=run)
     start = time.perf_counter()
     hops = replay(trace, provider, sample).hops
     wall = time.perf_counter() - start

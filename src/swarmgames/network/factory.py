@@ -19,7 +19,7 @@ BACKENDS = ("olsr", "oracle", "disk", "knn", "ns3")
 
 def make_provider(
     backend: str,
-    n_nodes: int,
+    n_robots: int,
     rng: int | np.random.Generator | None = None,
     *,
     hops: int = 2,
@@ -30,14 +30,14 @@ def make_provider(
     full_tables: bool = False,
     shadowing_key: int | None = None,
 ) -> NeighbourhoodProvider:
-    """The provider named ``backend`` for ``n_nodes`` robots.
+    """The provider named ``backend`` for ``n_robots`` robots.
 
     Parameters
     ----------
     backend : str
         One of :data:`BACKENDS`: ``'olsr'`` (built-in RFC 3626 model), ``'oracle'`` (instant
         shortest paths), ``'disk'`` (fixed radius), ``'knn'`` (k nearest), ``'ns3'`` (ns-3).
-    n_nodes : int
+    n_robots : int
         Number of robots.
     rng : int, Generator or None
         Seed of the provider's random draws.
@@ -76,19 +76,19 @@ def make_provider(
     if backend == "olsr":
         flag = olsr.hello_only
         hello_only = (hops <= 2 if flag == "auto" else bool(flag)) and not full_tables
-        return OlsrProvider(n_nodes, radio, olsr, hello_only, rng, shadowing_key=shadowing_key)
+        return OlsrProvider(n_robots, radio, olsr, hello_only, rng, shadowing_key=shadowing_key)
     if backend == "oracle":
         return OracleProvider(
-            n_nodes,
+            n_robots,
             radio,
             max_hops=None if full_tables else hops,
             seed=rng,
             shadowing_key=shadowing_key,
         )
     if backend == "disk":
-        return DiskProvider(n_nodes, disk_radius_m)
+        return DiskProvider(n_robots, disk_radius_m)
     if backend == "knn":
-        return KnnProvider(n_nodes, knn_k)
+        return KnnProvider(n_robots, knn_k)
     if backend == "ns3":
         # Provided by the optional ns-3 backend; imported lazily so the core never needs ns-3.
         try:
@@ -102,5 +102,5 @@ def make_provider(
                 "the 'ns3' backend is not part of this installation of swarmgames"
             ) from None
 
-        return Ns3Provider(n_nodes, radio, olsr, rng, shadowing_key=shadowing_key)
+        return Ns3Provider(n_robots, radio, olsr, rng, shadowing_key=shadowing_key)
     raise ConfigError(f"backend must be one of {', '.join(BACKENDS)} (got {backend!r})")

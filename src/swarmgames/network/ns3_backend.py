@@ -122,7 +122,7 @@ class Ns3Provider:
 
     Parameters
     ----------
-    n_nodes : int, optional
+    n_robots : int, optional
         Number of robots; if given, ``reset`` checks the positions against it.
     radio : RadioParameters, optional
         Propagation and reception (default: ns-3 defaults, as in the paper).
@@ -167,7 +167,7 @@ class Ns3Provider:
 
     def __init__(
         self,
-        n_nodes: int | None = None,
+        n_robots: int | None = None,
         radio: RadioParameters | None = None,
         olsr: OlsrParameters | None = None,
         seed: int | np.random.Generator | None = None,
@@ -178,9 +178,9 @@ class Ns3Provider:
         self.radio = RadioParameters() if radio is None else radio
         self.olsr = OlsrParameters() if olsr is None else olsr
         check_ns3_config(self.olsr)
-        if n_nodes is not None and int(n_nodes) < 1:
-            raise ValueError(f"n_nodes must be >= 1 (got {n_nodes})")
-        self.n_nodes = None if n_nodes is None else int(n_nodes)
+        if n_robots is not None and int(n_robots) < 1:
+            raise ValueError(f"n_robots must be >= 1 (got {n_robots})")
+        self.n_robots = None if n_robots is None else int(n_robots)
         if run is not None and not (isinstance(run, (int, np.integer)) and run >= 1):
             raise ValueError(f"run must be an integer >= 1 (got {run!r})")
         self._run = None if run is None else int(run)
@@ -198,7 +198,7 @@ class Ns3Provider:
         self.run_number: int | None = None
 
     def __repr__(self) -> str:
-        return f"Ns3Provider(n_nodes={self._n or self.n_nodes}, run={self.run_number})"
+        return f"Ns3Provider(n_robots={self._n or self.n_robots}, run={self.run_number})"
 
     # -- NeighbourhoodProvider -----------------------------------------------------------------
 
@@ -213,7 +213,7 @@ class Ns3Provider:
         Destroys any previous scenario of this process (of this or another provider).
         Returns the (empty) routing tables at ``start_time``.
         """
-        p = check_positions(positions, self.n_nodes)
+        p = check_positions(positions, self.n_robots)
         if not math.isfinite(start_time):
             raise ValueError(f"start_time must be finite (got {start_time})")
         with quiet_stderr():
@@ -261,7 +261,7 @@ class Ns3Provider:
         keep = (dest_i >= 0) & (dest_i != np.asarray(owner, dtype=np.int64))
         return TopologySnapshot(
             time=self.time,
-            n_nodes=self._n,
+            n_robots=self._n,
             owner=np.asarray(owner, dtype=np.int32)[keep],
             dest=dest_i[keep],
             hops=np.asarray(hops, dtype=np.int16)[keep],

@@ -68,9 +68,9 @@ def sparse_bfs_routes(
     owner, dest, hops, next_hop : ndarray
         Sorted by ``(owner, dest)``.
     """
-    n = np.int64(graph.n_nodes)
+    n = np.int64(graph.n_robots)
     deg = np.diff(graph.indptr)
-    owner = np.repeat(np.arange(graph.n_nodes, dtype=np.int64), deg)
+    owner = np.repeat(np.arange(graph.n_robots, dtype=np.int64), deg)
     dest = graph.indices.astype(np.int64)
     keys = [owner * n + dest]
     hops = [np.ones(dest.size, dtype=np.int16)]
@@ -119,7 +119,7 @@ class OracleProvider(_InstantProvider):
 
     Parameters
     ----------
-    n_nodes : int
+    n_robots : int
         Number of robots.
     radio : RadioParameters, optional
         Propagation and reception model.
@@ -145,20 +145,20 @@ class OracleProvider(_InstantProvider):
 
     def __init__(
         self,
-        n_nodes: int,
+        n_robots: int,
         radio: RadioParameters | None = None,
         max_hops: int | None = None,
         seed: int | np.random.Generator | None = None,
         shadowing_key: int | None = None,
     ) -> None:
-        super().__init__(n_nodes)
+        super().__init__(n_robots)
         self.max_hops = max_hops
         self._rng = as_generator(seed)
         self.model = channel_model(radio or RadioParameters(), self._rng, shadowing_key)
 
     def _snapshot(self, pos: np.ndarray) -> TopologySnapshot:
         g = link_graph(pos, self.model, self._rng)
-        if self.max_hops is not None and self.n_nodes > DENSE_NODES:
-            return TopologySnapshot(self._time, self.n_nodes, *sparse_bfs_routes(g, self.max_hops))
+        if self.max_hops is not None and self.n_robots > DENSE_NODES:
+            return TopologySnapshot(self._time, self.n_robots, *sparse_bfs_routes(g, self.max_hops))
         hops, nxt = bfs_hops(g.adjacency(), self.max_hops)
         return TopologySnapshot.from_hop_matrix(self._time, hops, nxt)

@@ -7,7 +7,7 @@ import numpy as np
 __all__ = ["check_positions", "check_time"]
 
 
-def check_positions(positions: np.ndarray, n_nodes: int | None = None) -> np.ndarray:
+def check_positions(positions: np.ndarray, n_robots: int | None = None) -> np.ndarray:
     """Return ``positions`` as a float array of shape (N, 3) (a (N, 2) input gets z = 0).
 
     Raises
@@ -21,8 +21,8 @@ def check_positions(positions: np.ndarray, n_nodes: int | None = None) -> np.nda
         raise ValueError(f"positions must have shape (N, 3) or (N, 2) (got {pos.shape})")
     if pos.shape[1] == 2:
         pos = np.c_[pos, np.zeros(pos.shape[0])]
-    if n_nodes is not None and pos.shape[0] != n_nodes:
-        raise ValueError(f"positions must have {n_nodes} rows, one per node (got {pos.shape[0]})")
+    if n_robots is not None and pos.shape[0] != n_robots:
+        raise ValueError(f"positions must have {n_robots} rows, one per node (got {pos.shape[0]})")
     bad = ~np.isfinite(pos).all(axis=1)
     if bad.any():
         k = int(np.flatnonzero(bad)[0])

@@ -179,7 +179,7 @@ def test_degenerate_swarms():
 
 
 def test_bad_arguments():
-    with pytest.raises(ValueError, match="n_nodes must be >= 1"):
+    with pytest.raises(ValueError, match="n_robots must be >= 1"):
         OlsrProvider(0)
     p = OlsrProvider(2)
     with pytest.raises(RuntimeError, match="call reset"):

@@ -70,11 +70,11 @@ def _csr_gather(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.nd
 
 
 class OlsrEngine:
-    """Mutable OLSR state of ``n_nodes`` nodes and its event loop.
+    """Mutable OLSR state of ``n_robots`` robots (OLSR nodes) and its event loop.
 
     Parameters
     ----------
-    n_nodes : int
+    n_robots : int
         Number of nodes.
     olsr : OlsrParameters
         Intervals, jitter, hold times, willingness.
@@ -88,13 +88,13 @@ class OlsrEngine:
 
     def __init__(
         self,
-        n_nodes: int,
+        n_robots: int,
         olsr: OlsrParameters,
         rng: np.random.Generator,
         hello_only: bool = False,
         start_time: float = 0.0,
     ) -> None:
-        self.n = int(n_nodes)
+        self.n = int(n_robots)
         self.cfg = olsr
         self.rng = rng
         self.hello_only = hello_only

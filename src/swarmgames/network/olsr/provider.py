@@ -20,7 +20,7 @@ class OlsrProvider:
 
     Parameters
     ----------
-    n_nodes : int
+    n_robots : int
         Number of robots.
     radio : RadioParameters, optional
         Propagation and reception (default: ns-3 defaults, range 368.84 m).
@@ -39,7 +39,7 @@ class OlsrProvider:
     Raises
     ------
     ValueError
-        If ``n_nodes < 1`` or ``olsr.max_jitter_s >= olsr.hello_interval_s``.
+        If ``n_robots < 1`` or ``olsr.max_jitter_s >= olsr.hello_interval_s``.
 
     Examples
     --------
@@ -54,16 +54,16 @@ class OlsrProvider:
 
     def __init__(
         self,
-        n_nodes: int,
+        n_robots: int,
         radio: RadioParameters | None = None,
         olsr: OlsrParameters | None = None,
         hello_only: bool = False,
         seed: int | np.random.Generator | None = None,
         shadowing_key: int | None = None,
     ) -> None:
-        if int(n_nodes) < 1:
-            raise ValueError(f"n_nodes must be >= 1 (got {n_nodes})")
-        self.n_nodes = int(n_nodes)
+        if int(n_robots) < 1:
+            raise ValueError(f"n_robots must be >= 1 (got {n_robots})")
+        self.n_robots = int(n_robots)
         self.olsr = olsr or OlsrParameters()
         if self.olsr.max_jitter_s >= self.olsr.hello_interval_s:
             # Each HELLO round must be on the air before the next is built (ns-3: jitter is a
@@ -92,9 +92,9 @@ class OlsrProvider:
 
     def reset(self, positions: np.ndarray, start_time: float = 0.0) -> TopologySnapshot:
         """Start every node's OLSR at ``start_time`` with empty tables."""
-        check_positions(positions, self.n_nodes)
+        check_positions(positions, self.n_robots)
         self._engine = OlsrEngine(
-            self.n_nodes, self.olsr, self._rng, self.hello_only, float(start_time)
+            self.n_robots, self.olsr, self._rng, self.hello_only, float(start_time)
         )
         self._time = float(start_time)
         return self.snapshot()
@@ -106,7 +106,7 @@ class OlsrProvider:
 
     def step(self, to_time: float, positions: np.ndarray) -> None:
         """Like :meth:`advance` but without building a snapshot (cheaper between samples)."""
-        pos = check_positions(positions, self.n_nodes)
+        pos = check_positions(positions, self.n_robots)
         t = check_time(to_time, self._time)
         graph = link_graph(pos, self.model, self._rng)
         self.engine.run_until(t, graph)
@@ -115,4 +115,4 @@ class OlsrProvider:
     def snapshot(self) -> TopologySnapshot:
         """Every robot's routing table now."""
         owner, dest, hops, nxt = self.engine.routes(self._time)
-        return TopologySnapshot(self._time, self.n_nodes, owner, dest, hops, nxt)
+        return TopologySnapshot(self._time, self.n_robots, owner, dest, hops, nxt)
