@@ -3,6 +3,7 @@
 from swarmgames.sim.controllers import Decision, GameController, LloydController
 from swarmgames.sim.lloyd import lloyd_actions, voronoi_centroids
 from swarmgames.sim.loop import StageLog, run_stages, start_positions
+from swarmgames.sim.providers import provider_from_config
 from swarmgames.sim.result import RunResult
 from swarmgames.sim.runner import build_mission, check_config, run
 
@@ -15,6 +16,7 @@ __all__ = [
     "build_mission",
     "check_config",
     "lloyd_actions",
+    "provider_from_config",
     "run",
     "run_stages",
     "start_positions",
