@@ -78,9 +78,7 @@ def test_console_entry_point_via_python_m():
         ("ConfigError", 2),
         ("InputDataError", 2),
         ("RunFolderError", 2),
-        ("NotAvailableError", 1),
         ("BackendUnavailableError", 1),
-        ("ConvergenceError", 1),
     ],
 )
 def test_errors_map_to_documented_exit_codes(runner, error, code):
@@ -94,8 +92,6 @@ def test_errors_map_to_documented_exit_codes(runner, error, code):
     @click.command()
     @_guarded
     def failing() -> None:
-        if error == "ConvergenceError":
-            raise exc_type("did not converge", iterations=3, residual=0.5)
         raise exc_type("something is wrong")
 
     res = runner.invoke(failing, [])

@@ -20,6 +20,7 @@ from swarmgames.errors import (
     RunFolderError,
     SwarmgamesError,
 )
+from swarmgames.network.factory import BACKENDS
 
 __all__ = ["cli", "main"]
 
@@ -238,8 +239,6 @@ def network() -> None:
     """Replay position traces through the network layer and compare backends."""
 
 
-BACKENDS = ("olsr", "oracle", "disk", "knn", "ns3")
-
 positions_option = click.option(
     "--positions",
     required=True,
@@ -282,7 +281,7 @@ def replay(
     --set network.radio.tx_power_dbm=20.
     """
     from swarmgames.config import resolve_scenario
-    from swarmgames.network.replay import replay as replay_trace
+    from swarmgames.experiments.replay import replay as replay_trace
     from swarmgames.network.trace import read_positions
 
     cfg = resolve_scenario(None, overrides).network
@@ -300,7 +299,7 @@ def replay(
         )
     s = res.summary
     click.echo(
-        f"{backend}: {trace.n_nodes} robots, {len(s)} samples, {len(res.hops)} routes; "
+        f"{backend}: {trace.n_robots} robots, {len(s)} samples, {len(res.hops)} routes; "
         f"mean degree {s['mean_degree'].mean():.3f}, mean hops {s['mean_hops'].mean():.3f} "
         f"-> {folder.path}/"
     )
@@ -343,7 +342,7 @@ def compare(
     agreement.png and summary.json.
     """
     from swarmgames.config import resolve_scenario
-    from swarmgames.network.compare import compare as compare_backends
+    from swarmgames.experiments.compare import compare as compare_backends
     from swarmgames.network.trace import read_positions
 
     names = [b.strip() for b in backends.split(",") if b.strip()]
@@ -363,7 +362,7 @@ def compare(
     summary = res.summary()
     from rich.table import Table
 
-    table = Table(title=f"agreement with {summary['reference']} ({trace.n_nodes} robots)")
+    table = Table(title=f"agreement with {summary['reference']} ({trace.n_robots} robots)")
     for col in ("backend", "all entries", "within 2 hops", "entries", "wall time (s)"):
         table.add_column(col, justify="right")
     for name in names:

@@ -58,10 +58,10 @@ def test_table_frame_plot_and_files(tiny, tmp_path):
 
 def test_stage_bench_moves_the_swarm():
     sb = StageBench(6, seed=1)
-    before = sb.positions.copy()
+    before = sb.states.copy()
     for _ in range(3):
         sb.step()
-    assert sb.positions.shape == before.shape and len(sb.parts.advance_s) == 3
+    assert sb.states.shape == before.shape and len(sb.parts.advance_s) == 3
     assert sb.time == pytest.approx(sb.config.sim.warmup_s + 3.0)
 
 

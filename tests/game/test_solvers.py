@@ -19,14 +19,18 @@ from tests.game.helpers import MODEL, POT, random_games
 from tests.game.helpers import swarm as _swarm
 
 
-@pytest.mark.parametrize(("name", "centralised"), [*((s, False) for s in SOLVERS), ("mean_field", True)])
+@pytest.mark.parametrize(
+    ("name", "centralised"), [*((s, False) for s in SOLVERS), ("mean_field", True)]
+)
 def test_every_solver_returns_a_valid_action_per_robot(name, centralised):
     pos, snap = _swarm(8)
     cfg = GameConfig(solver="centralised" if centralised else name, alpha_b=0.5, beta=20.0)
     cfg = cfg.model_copy(update={"max_profiles": 10**7})
     solver = solver_from_config(cfg)
     assert solver.name == name and isinstance(solver, Solver)
-    out = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=0, centralised=centralised, keep_games=True)
+    out = solve_stage(
+        solver, snap, 1, pos, MODEL, POT, rng=0, centralised=centralised, keep_games=True
+    )
     assert out.actions.shape == (8,)
     valid = MODEL.valid(pos)
     assert np.all(valid[np.arange(8), out.actions])

@@ -8,6 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from swarmgames.game.inertia import Inertia
 from swarmgames.missions import CoveragePotentials, GaussianROI, HeadingActions, SignalModel
 
 T0, L0, N_EXP = 16.0206, 46.6777, 3.0  # ns-3 log-distance defaults, REFERENCE.md section 2
@@ -154,8 +155,11 @@ def test_coverage_metric(small):
 def test_move_cost_and_crowding_penalty(small):
     base, model = small
     roi, sig = base.roi, base.signal
-    pot = CoveragePotentials(
-        roi, sig, move_cost_db=0.01, separation_m=50.0, separation_cost_db=0.1, crowding="unary"
+    pot = Inertia(
+        CoveragePotentials(
+            roi, sig, separation_m=50.0, separation_cost_db=0.1, separation_mode="unary"
+        ),
+        0.01 * roi.mass,
     )
     s = np.array([[[0.0, 0.0, 30.0], [20.0, 0.0, 30.0]]])
     batch = _batch(s, [[True, True]], model)
@@ -210,7 +214,7 @@ def test_sparse_crowding_equals_the_dense_sum(seed, spread):
     roi = GaussianROI((0.0, 0.0), ((150.0**2, 0.0), (0.0, 100.0**2)), 0.9, 60.0)
     model = HeadingActions(20.0, 4)
     pot = CoveragePotentials(
-        roi, SignalModel(), separation_m=50.0, separation_cost_db=0.1, crowding="unary"
+        roi, SignalModel(), separation_m=50.0, separation_cost_db=0.1, separation_mode="unary"
     )
     rng = np.random.default_rng(seed)
     states = np.c_[rng.uniform(-spread, spread, (12, 2)), np.full(12, 30.0)].reshape(3, 4, 3)
@@ -267,7 +271,7 @@ def _crowding_in_payoff(base, batch, mode, profile):
     from swarmgames.game import evaluate_payoffs, profile_payoff
 
     pot = CoveragePotentials(
-        base.roi, base.signal, separation_m=50.0, separation_cost_db=0.1, crowding=mode
+        base.roi, base.signal, separation_m=50.0, separation_cost_db=0.1, separation_mode=mode
     )
     prof = np.tile(profile, (batch.n_games, 1))
     with_c = profile_payoff(evaluate_payoffs(batch, pot, 1.0, 0.001), prof)
@@ -307,7 +311,7 @@ def test_unary_crowding_believes_a_joint_move_escapes(small, heading):
 def test_pairwise_crowding_table_matches_pairwise(small):
     base, model = small
     pot = CoveragePotentials(
-        base.roi, base.signal, separation_m=50.0, separation_cost_db=0.1, crowding="pairwise"
+        base.roi, base.signal, separation_m=50.0, separation_cost_db=0.1, separation_mode="pairwise"
     )
     s = np.array([[[0.0, 0.0, 30.0], [20.0, 0.0, 30.0], [35.0, 12.0, 30.0]]])
     batch = _batch(s, [[True, True, True]], model)
@@ -337,10 +341,10 @@ def test_pairwise_crowding_rejects_a_zero_pair_weight(small):
             base.signal,
             separation_m=50.0,
             separation_cost_db=0.1,
-            pair_weight=0.0,
-            crowding="pairwise",
+            alpha_b=0.0,
+            separation_mode="pairwise",
         )
-    with pytest.raises(ValueError, match="crowding must be"):
-        CoveragePotentials(base.roi, base.signal, crowding="both")
+    with pytest.raises(ValueError, match="separation_mode must be"):
+        CoveragePotentials(base.roi, base.signal, separation_mode="both")
     # no crowding: a zero pair weight is fine (the paper with alpha_b = 0)
-    CoveragePotentials(base.roi, base.signal, pair_weight=0.0, crowding="pairwise")
+    CoveragePotentials(base.roi, base.signal, alpha_b=0.0, separation_mode="pairwise")

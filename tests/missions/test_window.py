@@ -172,13 +172,14 @@ def test_raster_holds_the_roi_weights():
 @pytest.mark.parametrize("workers", [1, 2])
 def test_state_ids_and_threads_give_the_same_unary(workers):
     # Shared signals keyed by robot id (real or virtual) equal those keyed by value.
-    from swarmgames.game import local_games
     from swarmgames.config.scaling import scaled_config
+    from swarmgames.game import local_games
     from swarmgames.sim.runner import build_mission
     from tests.game.helpers import disk_snapshot
 
     cfg = scaled_config(80, workers=workers)
-    pot, model = build_mission(cfg)
+    mission = build_mission(cfg)
+    pot, model = mission.potentials, mission.action_model
     pos = np.random.default_rng(1).uniform(-1200, 1200, size=(80, 2))
     pos = np.c_[pos, np.full(80, 30.0)]
     batch = local_games(disk_snapshot(pos[:, :2], 368.84), 2, pos, model)

@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 
-from swarmgames.config import NetworkConfig
 from swarmgames.network.baselines import DiskProvider, KnnProvider
 from swarmgames.network.conformance import (
     ProviderConformanceError,
@@ -11,16 +10,16 @@ from swarmgames.network.conformance import (
     check_snapshot,
 )
 from swarmgames.network.factory import make_provider
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 
 @pytest.mark.parametrize("backend", ["olsr", "oracle", "disk", "knn"])
 @pytest.mark.parametrize("full_tables", [False, True])
 def test_builtin_providers_conform(backend, full_tables):
-    cfg = NetworkConfig(backend=backend, knn_k=1)
     # knn has no notion of range: its isolated robot still has k neighbours.
     check_provider(
-        make_provider(cfg, 6, seed=0, full_tables=full_tables), range_limited=backend != "knn"
+        make_provider(backend, 6, 0, knn_k=1, full_tables=full_tables),
+        range_limited=backend != "knn",
     )
 
 
@@ -43,11 +42,11 @@ def test_broken_provider_is_caught():
 def test_snapshot_rules():
     ok = TopologySnapshot(0.0, 3, [0, 1], [1, 0], [1, 1], [1, 0])
     check_snapshot(ok, 3, 0.0)
-    with pytest.raises(ProviderConformanceError, match="n_nodes=3, expected 4"):
+    with pytest.raises(ProviderConformanceError, match="n_robots=3, expected 4"):
         check_snapshot(ok, 4, 0.0)
     with pytest.raises(ProviderConformanceError, match="route to itself"):
         check_snapshot(TopologySnapshot(0.0, 3, [0], [0], [1]), 3, 0.0)
     with pytest.raises(ProviderConformanceError, match="next hop must be a 1-hop neighbour"):
         check_snapshot(TopologySnapshot(0.0, 3, [0], [2], [2], [2]), 3, 0.0)
-    with pytest.raises(ValueError, match="n_nodes must be >= 3"):
-        check_provider(DiskProvider(2), n_nodes=2)
+    with pytest.raises(ValueError, match="n_robots must be >= 3"):
+        check_provider(DiskProvider(2), n_robots=2)

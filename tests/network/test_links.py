@@ -5,8 +5,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from swarmgames.config import RadioConfig
 from swarmgames.network.links import link_graph
+from swarmgames.network.parameters import RadioParameters
 from swarmgames.network.propagation import PropagationModel, friis_rx_power
 
 
@@ -43,7 +43,7 @@ def test_degenerate_layouts():
 def test_shadowed_graph_is_seeded_and_symmetric():
     rng = np.random.default_rng(0)
     pos = rng.uniform(0, 1500, (60, 3))
-    model = PropagationModel(RadioConfig(shadowing_sigma_db=5.7))
+    model = PropagationModel(RadioParameters(shadowing_sigma_db=5.7))
     a = link_graph(pos, model, np.random.default_rng(3))
     b = link_graph(pos, model, np.random.default_rng(3))
     assert np.array_equal(a.i, b.i) and np.array_equal(a.j, b.j)

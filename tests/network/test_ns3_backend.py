@@ -9,13 +9,13 @@ import sys
 import numpy as np
 import pytest
 
-from swarmgames.config import NetworkConfig, OlsrConfig, RadioConfig
 from swarmgames.errors import BackendUnavailableError, ConfigError
+from swarmgames.experiments.compare import compare
 from swarmgames.network import ns3_import
-from swarmgames.network.compare import compare
 from swarmgames.network.factory import make_provider
 from swarmgames.network.ns3_backend import check_ns3_config
 from swarmgames.network.oracle import OracleProvider
+from swarmgames.network.parameters import OlsrParameters, RadioParameters
 from swarmgames.network.provider import NeighbourhoodProvider
 from swarmgames.network.recorded import read_recording
 from swarmgames.network.trace import PositionTrace
@@ -73,7 +73,7 @@ def test_availability_check_does_not_import(monkeypatch):
 def test_choosing_ns3_without_package_is_a_clear_import_error(monkeypatch):
     without_ns(monkeypatch)
     with pytest.raises(ImportError, match=r"swarmgames\[ns3\]"):
-        make_provider(NetworkConfig(backend="ns3"), 3)
+        make_provider("ns3", 3)
 
 
 def test_quiet_stderr_drops_only_cppyy_noise(capfd):
@@ -86,7 +86,7 @@ def test_quiet_stderr_drops_only_cppyy_noise(capfd):
 
 
 def test_default_config_is_accepted():
-    check_ns3_config(NetworkConfig())
+    check_ns3_config(OlsrParameters())
 
 
 @pytest.mark.parametrize(
@@ -104,17 +104,16 @@ def test_default_config_is_accepted():
     ],
 )
 def test_configs_ns3_cannot_express_are_rejected(olsr, field):
-    config = NetworkConfig(olsr=OlsrConfig(**olsr))
     with pytest.raises(ConfigError, match=rf"network\.olsr\.{field}: must .*\(got "):
-        check_ns3_config(config)
+        check_ns3_config(OlsrParameters(**olsr))
 
 
 def test_consistent_custom_timers_are_accepted():
-    olsr = OlsrConfig(
+    olsr = OlsrParameters(
         hello_interval_s=1.0, max_jitter_s=0.25, neighbour_hold_s=3.0, tc_interval_s=4.0,
         topology_hold_s=12.0,
     )  # fmt: skip
-    check_ns3_config(NetworkConfig(olsr=olsr))
+    check_ns3_config(olsr)
 
 
 # -- with ns-3 ---------------------------------------------------------------------------------
@@ -167,7 +166,7 @@ def test_hexagon_matches_reference(ns3, d, degree, hops):
     ],
 )
 def test_link_range_follows_radio_config(ns3, radio, linked, cut):
-    net = ns3(NetworkConfig(radio=RadioConfig(**radio)), seed=2)
+    net = ns3(radio=RadioParameters(**radio), seed=2)
     assert settle(net, line(2, linked), 10.0).n_entries == 2
     assert settle(net, line(2, cut), 10.0).n_entries == 0
 
@@ -175,8 +174,8 @@ def test_link_range_follows_radio_config(ns3, radio, linked, cut):
 @pytest.mark.ns3
 def test_random_channel_models_run(ns3):
     # shadowing (sigma 5.7 dB, the authors' scripts) and Rayleigh fading (Nakagami m = 1)
-    radio = RadioConfig(shadowing_sigma_db=5.7, nakagami_m=1.0)
-    snap = settle(ns3(NetworkConfig(radio=radio), seed=3), line(5, 100.0), 20.0)
+    radio = RadioParameters(shadowing_sigma_db=5.7, nakagami_m=1.0)
+    snap = settle(ns3(radio=radio, seed=3), line(5, 100.0), 20.0)
     assert snap.n_entries > 0
     assert set(np.unique(snap.owner)) <= set(range(5))
 
@@ -216,7 +215,7 @@ def test_a_provider_whose_simulator_was_taken_over_refuses_to_run(ns3):
     b.reset(line(4, 100.0))
     with pytest.raises(RuntimeError, match="destroyed"):
         a.advance(5.0, line(3, 100.0))
-    assert b.advance(5.0, line(4, 100.0)).n_nodes == 4
+    assert b.advance(5.0, line(4, 100.0)).n_robots == 4
 
 
 @pytest.mark.ns3
@@ -243,7 +242,7 @@ def test_time_offset_and_bad_calls(ns3):
 def test_static_layouts_equal_bfs_after_30s(ns3, name):
     # REFERENCE.md section 4: after settling, ns-3 hop counts equal BFS on the 368.84 m disk graph
     rec = read_recording(os.path.join(DATA, name))
-    result = compare(rec.positions, [OracleProvider(rec.n_nodes), ns3(seed=8)], 5.0, warmup_s=30.0)
+    result = compare(rec.positions, [OracleProvider(rec.n_robots), ns3(seed=8)], 5.0, warmup_s=30.0)
     assert result.agreement() == 1.0
 
 
@@ -264,7 +263,7 @@ def test_figure1_with_ns3_backend_matches_reference(ns3):
 
 @pytest.mark.ns3
 def test_factory_builds_the_ns3_provider(ns3):
-    net = make_provider(NetworkConfig(backend="ns3"), 3, seed=0)
+    net = make_provider("ns3", 3, 0)
     assert isinstance(net, ns3)
     with pytest.raises(ValueError, match="positions must have 3 rows"):
         net.reset(line(4, 10.0))
@@ -284,7 +283,7 @@ def test_recorder_reproduces_committed_static_recording(ns3, tmp_path):
 
 @pytest.mark.ns3
 def test_replay_and_compare_by_name_match_the_recorded_ns3_run(ns3):
-    from swarmgames.network.replay import replay
+    from swarmgames.experiments.replay import replay
 
     rec = read_recording(os.path.join(DATA, "hex_expand"))
     trace = PositionTrace.from_frame(rec.positions)

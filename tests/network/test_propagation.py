@@ -6,7 +6,7 @@ import warnings
 import numpy as np
 import pytest
 
-from swarmgames.config import RadioConfig
+from swarmgames.network.parameters import RadioParameters
 from swarmgames.network.propagation import (
     PropagationModel,
     friis_rx_power,
@@ -27,14 +27,14 @@ def test_friis_default_budget():
 
 def test_default_range_is_368_84_m():
     # REFERENCE.md section 2: ns-3 links at 368.5 m and not at 369 m; d_max = 368.84 m.
-    assert max_range(RadioConfig()) == pytest.approx(368.84, abs=0.01)
+    assert max_range(RadioParameters()) == pytest.approx(368.84, abs=0.01)
     assert friis_rx_power(368.5) >= -82.0
     assert friis_rx_power(369.0) < -82.0
 
 
 def test_range_formula_with_system_loss():
     # REFERENCE.md section 2: d_max = (c/f)/(4 pi) 10^((Pt + 82 - 10 log10 L)/20).
-    radio = RadioConfig(system_loss=2.0)
+    radio = RadioParameters(system_loss=2.0)
     expected = (299_792_458 / 5.15e9) / (4 * np.pi) * 10 ** ((16.0206 + 82 - 10 * np.log10(2)) / 20)
     assert max_range(radio) == pytest.approx(expected)
 
@@ -42,8 +42,8 @@ def test_range_formula_with_system_loss():
 @pytest.mark.parametrize("rate, sensitivity", sorted(SENSITIVITY_80211A_DBM.items()))
 def test_range_shrinks_with_rate_sensitivity(rate, sensitivity):
     # 802.11a sensitivities per rate, REFERENCE.md section 2: higher rates need more power.
-    r = max_range(RadioConfig(rx_threshold_dbm=sensitivity))
-    assert r <= max_range(RadioConfig()) + 1e-9
+    r = max_range(RadioParameters(rx_threshold_dbm=sensitivity))
+    assert r <= max_range(RadioParameters()) + 1e-9
     assert friis_rx_power(r) == pytest.approx(sensitivity)
 
 
@@ -65,13 +65,13 @@ def test_min_loss_caps_friis_loss():
 def test_log_distance_formula():
     # ns-3 LogDistancePropagationLossModel: Pr = Pt - L0 - 10 n log10(d / d0).
     assert log_distance_rx_power(100.0, exponent=3.0) == pytest.approx(16.0206 - 46.6777 - 60.0)
-    radio = RadioConfig(loss_model="log_distance")
+    radio = RadioParameters(loss_model="log_distance")
     r = max_range(radio)
     assert log_distance_rx_power(r) == pytest.approx(-82.0)
 
 
 def test_shadowing_is_seeded_and_zero_mean():
-    model = PropagationModel(RadioConfig(shadowing_sigma_db=5.7))
+    model = PropagationModel(RadioParameters(shadowing_sigma_db=5.7))
     d = np.full(20_000, 100.0)
     a = model.rx_power(d, np.random.default_rng(1))
     b = model.rx_power(d, np.random.default_rng(1))
@@ -82,7 +82,7 @@ def test_shadowing_is_seeded_and_zero_mean():
 
 def test_nakagami_gain_has_unit_mean():
     # Nakagami-m power gain ~ Gamma(m, 1/m): mean 1 in linear units (m = 1 is Rayleigh).
-    model = PropagationModel(RadioConfig(nakagami_m=1.0))
+    model = PropagationModel(RadioParameters(nakagami_m=1.0))
     p = model.rx_power(np.full(50_000, 100.0), np.random.default_rng(2))
     linear = 10 ** ((p - friis_rx_power(100.0)) / 10)
     assert linear.mean() == pytest.approx(1.0, rel=0.03)
@@ -90,12 +90,12 @@ def test_nakagami_gain_has_unit_mean():
 
 def test_random_model_needs_rng():
     with pytest.raises(ValueError, match="rng must be a numpy Generator"):
-        PropagationModel(RadioConfig(shadowing_sigma_db=3.0)).rx_power(np.ones(2))
+        PropagationModel(RadioParameters(shadowing_sigma_db=3.0)).rx_power(np.ones(2))
 
 
 def test_random_range_bound_exceeds_deterministic_range():
-    assert max_range(RadioConfig(shadowing_sigma_db=5.7)) > max_range(RadioConfig())
+    assert max_range(RadioParameters(shadowing_sigma_db=5.7)) > max_range(RadioParameters())
 
 
 def test_no_range_when_min_loss_exceeds_budget():
-    assert max_range(RadioConfig(min_loss_db=200.0)) == 0.0
+    assert max_range(RadioParameters(min_loss_db=200.0)) == 0.0

@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 
-from swarmgames.config import NetworkConfig
 from swarmgames.errors import BackendUnavailableError
 from swarmgames.network import NeighbourhoodProvider
 from swarmgames.network.baselines import DiskProvider, KnnProvider
@@ -11,33 +10,34 @@ from swarmgames.network.factory import make_provider
 from swarmgames.network.links import link_graph
 from swarmgames.network.olsr.provider import OlsrProvider
 from swarmgames.network.oracle import OracleProvider, bfs_hops, sparse_bfs_routes
+from swarmgames.network.parameters import OlsrParameters
 
 LINE = np.c_[np.arange(4) * 300.0, np.zeros(4), np.zeros(4)]
 
 
 @pytest.mark.parametrize("backend", ["olsr", "oracle", "disk", "knn"])
 def test_factory_builds_conforming_providers(backend):
-    p = make_provider(NetworkConfig(backend=backend), 4, seed=0)
+    p = make_provider(backend, 4, 0)
     assert isinstance(p, NeighbourhoodProvider)
     assert p.name == backend
     snap = p.reset(LINE, 1.0)
     assert p.time == 1.0 and snap.time == 1.0
     snap = p.advance(31.0, LINE)
-    assert snap.n_nodes == 4 and p.time == 31.0
+    assert snap.n_robots == 4 and p.time == 31.0
     assert (snap.owner != snap.dest).all()
 
 
 def test_factory_hello_only_auto_follows_h():
-    # OlsrConfig.hello_only = 'auto': HELLO-only when h <= 2.
-    assert make_provider(NetworkConfig(hops=2), 3).hello_only
-    assert not make_provider(NetworkConfig(hops=3), 3).hello_only
-    assert not make_provider(NetworkConfig(hops=2), 3, full_tables=True).hello_only
-    assert not make_provider(NetworkConfig(olsr={"hello_only": False}), 3).hello_only
+    # OlsrParameters.hello_only = 'auto': HELLO-only when h <= 2.
+    assert make_provider("olsr", 3, hops=2).hello_only
+    assert not make_provider("olsr", 3, hops=3).hello_only
+    assert not make_provider("olsr", 3, hops=2, full_tables=True).hello_only
+    assert not make_provider("olsr", 3, olsr=OlsrParameters(hello_only=False)).hello_only
 
 
 def test_factory_oracle_keeps_what_n_i_h_needs():
-    assert make_provider(NetworkConfig(backend="oracle", hops=2), 4).reset(LINE).hops.max() == 2
-    full = make_provider(NetworkConfig(backend="oracle", hops=2), 4, full_tables=True)
+    assert make_provider("oracle", 4, hops=2).reset(LINE).hops.max() == 2
+    full = make_provider("oracle", 4, hops=2, full_tables=True)
     assert full.reset(LINE).hops.max() == 3
 
 
@@ -46,7 +46,7 @@ def test_ns3_backend_is_lazy_and_reports_absence():
         import swarmgames.network.ns3_backend  # noqa: F401
     except ImportError:
         with pytest.raises(BackendUnavailableError, match="ns3"):
-            make_provider(NetworkConfig(backend="ns3"), 3)
+            make_provider("ns3", 3)
     else:  # pragma: no cover - when the ns-3 backend is installed
         pytest.skip("ns-3 backend installed")
 
@@ -106,7 +106,7 @@ def test_bad_provider_arguments():
         DiskProvider(3, radius=-1.0)
     with pytest.raises(ValueError, match="k must be >= 1"):
         KnnProvider(3, k=0)
-    with pytest.raises(ValueError, match="n_nodes must be >= 1"):
+    with pytest.raises(ValueError, match="n_robots must be >= 1"):
         OracleProvider(0)
     with pytest.raises(ValueError, match=r"positions must have shape \(N, 3\)"):
         OracleProvider(2).reset(np.zeros(3))

@@ -13,15 +13,15 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from swarmgames.config import NetworkConfig, RadioConfig
 from swarmgames.errors import BackendUnavailableError
 from swarmgames.network import ns3_import
 from swarmgames.network.factory import make_provider
 from swarmgames.network.links import link_graph
 from swarmgames.network.oracle import OracleProvider
+from swarmgames.network.parameters import RadioParameters
 from swarmgames.network.propagation import PropagationModel, pair_gaussians
 
-SHADOWED = RadioConfig(shadowing_sigma_db=5.7)
+SHADOWED = RadioParameters(shadowing_sigma_db=5.7)
 
 
 def _swarm(n: int, side: float, seed: int) -> np.ndarray:
@@ -62,15 +62,12 @@ def test_without_key_shadowing_is_drawn_per_call():
 
 def test_providers_with_one_key_see_one_channel():
     pos = _swarm(40, 1200.0, 3)
-    cfg = NetworkConfig(radio=SHADOWED)
     a = OracleProvider(40, SHADOWED, seed=1, shadowing_key=99)
     b = OracleProvider(40, SHADOWED, seed=2, shadowing_key=99)
     ha = a.reset(pos).hop_matrix()
     assert np.array_equal(ha, b.reset(pos).hop_matrix())
     # The built-in OLSR model, settled, routes exactly the oracle's graph on that channel.
-    olsr = make_provider(
-        cfg.model_copy(update={"backend": "olsr"}), 40, 5, full_tables=True, shadowing_key=99
-    )
+    olsr = make_provider("olsr", 40, 5, radio=SHADOWED, full_tables=True, shadowing_key=99)
     olsr.reset(pos)
     assert np.array_equal(olsr.advance(40.0, pos).hop_matrix(), ha)
 
@@ -85,7 +82,7 @@ def test_seed_decides_the_channel_when_no_key_is_given():
 
 def test_olsr_links_do_not_flicker_while_robots_hold_still():
     pos = _swarm(30, 1000.0, 8)
-    net = make_provider(NetworkConfig(radio=SHADOWED), 30, 0, full_tables=True)
+    net = make_provider("olsr", 30, 0, radio=SHADOWED, full_tables=True)
     net.reset(pos)
     tables = [net.advance(t, pos).hop_matrix() for t in (30.0, 31.0, 45.0, 60.0)]
     assert all(np.array_equal(tables[0], t) for t in tables[1:])
@@ -100,12 +97,9 @@ def test_ns3_and_olsr_agree_on_a_shadowed_channel():
     except BackendUnavailableError as exc:
         pytest.skip(str(exc))
     pos = _swarm(20, 900.0, 11)
-    cfg = NetworkConfig(radio=SHADOWED)
     tables = []
     for backend in ("olsr", "ns3"):
-        net = make_provider(
-            cfg.model_copy(update={"backend": backend}), 20, 1, full_tables=True, shadowing_key=2024
-        )
+        net = make_provider(backend, 20, 1, radio=SHADOWED, full_tables=True, shadowing_key=2024)
         net.reset(pos)
         tables.append(net.advance(30.0, pos).hop_matrix())
     assert np.array_equal(tables[0], tables[1])

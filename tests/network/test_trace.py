@@ -22,7 +22,7 @@ def _write(tmp_path, text):
 
 def test_reads_piecewise_constant_trace(tmp_path):
     tr = read_positions(_write(tmp_path, GOOD))
-    assert tr.n_nodes == 2 and tr.times.tolist() == [0.0, 1.5]
+    assert tr.n_robots == 2 and tr.times.tolist() == [0.0, 1.5]
     assert tr.at(1.0)[1].tolist() == [100.0, 0.0, 0.0]
     assert tr.at(1.5)[1].tolist() == [200.0, 0.0, 0.0]
     assert tr.at(9.0)[0].tolist() == [0.0, 0.0, 0.0]  # node 0 holds its only row
@@ -33,7 +33,7 @@ def test_reads_recorded_ns3_trace():
     tr = read_positions(
         Path(__file__).resolve().parents[1] / "data" / "ns3" / "hex_expand" / "positions.csv"
     )
-    assert tr.n_nodes == 7 and tr.end == 180.0
+    assert tr.n_robots == 7 and tr.end == 180.0
 
 
 @pytest.mark.parametrize(
@@ -73,7 +73,7 @@ def test_empty_file(tmp_path):
 
 def test_single_robot_trace(tmp_path):
     tr = read_positions(_write(tmp_path, "t,node,x,y,z\n0,0,1,2,3\n"))
-    assert tr.n_nodes == 1 and np.array_equal(tr.at(0.0), [[1.0, 2.0, 3.0]])
+    assert tr.n_robots == 1 and np.array_equal(tr.at(0.0), [[1.0, 2.0, 3.0]])
 
 
 @settings(max_examples=40, deadline=None)

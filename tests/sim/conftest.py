@@ -6,7 +6,7 @@ import pytest
 from scipy.sparse import csgraph, csr_array
 from scipy.spatial import cKDTree
 
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 
 class DiskOracle:

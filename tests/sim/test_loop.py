@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from swarmgames.config import parse_config
-from swarmgames.sim import build_mission, run, run_stages
 from swarmgames.missions import disc_states
+from swarmgames.sim import build_mission, run, run_stages
 from swarmgames.sim.controllers import GameController
 from swarmgames.sim.loop import oscillation, swarm_graph_stats
 
@@ -45,7 +45,7 @@ def test_partitioned_swarm():
 
 
 def test_graph_stats_of_partition():
-    from swarmgames.network.topology import TopologySnapshot
+    from swarmgames.topology import TopologySnapshot
 
     hops = np.array([[0, 1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 1], [0, 0, 1, 0]])
     mean_h, max_h, comps, edges = swarm_graph_stats(TopologySnapshot.from_hop_matrix(0.0, hops))
@@ -200,7 +200,13 @@ def test_two_cycle_swarm_reports_full_oscillation():
             nxt[:, 0] = np.where(states[:, 0] > 0, 0.0, 10.0)
             z = np.zeros(n)
             return StageSolution(
-                np.zeros(n, np.int64), nxt, z, z, z, z.astype(np.int64), z.astype(np.int64),
+                np.zeros(n, np.int64),
+                nxt,
+                z,
+                z,
+                z,
+                z.astype(np.int64),
+                z.astype(np.int64),
                 np.ones(n, bool),
             )
 

@@ -9,11 +9,13 @@ import pytest
 
 from swarmgames.config import ScenarioConfig, parse_config
 from swarmgames.errors import ConfigError, RunFolderError
-from swarmgames.network.topology import TopologySnapshot
 from swarmgames.runfolder import RunFolder
 from swarmgames.sim import build_mission, run
 from swarmgames.sim.controllers import GameController
 from swarmgames.sim.result import METRICS_COLUMNS, TRAJECTORY_COLUMNS
+from swarmgames.topology import TopologySnapshot
+
+from .conftest import DiskOracle
 
 SWARM_COLUMNS = [
     "t",
@@ -24,8 +26,6 @@ SWARM_COLUMNS = [
     "components",
     "oscillation",
 ]
-
-from .conftest import DiskOracle
 
 
 def _cfg(data=None):
@@ -115,7 +115,7 @@ def test_solvers_selectable(game):
 
 
 def test_no_virtual_mean_is_a_game_option_not_a_solver():
-    with pytest.raises(ConfigError, match="game.virtual_mean = false"):
+    with pytest.raises(ConfigError, match=r"game\.virtual_mean = false"):
         _cfg({"game": {"solver": "no_virtual_mean"}})
 
 

@@ -20,6 +20,7 @@ import numpy as np
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.meanfield import mean_field
 from swarmgames.game.potentials import TablePotentials, evaluate_payoffs
+from swarmgames.rng import as_generator
 
 __all__ = [
     "bench_local_game",
@@ -38,7 +39,7 @@ def random_local_games(
     States are random 2-D points and next states are the points themselves (the tables carry
     the payoffs); every variable is valid and has every action.
     """
-    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    rng = as_generator(seed)
     b, k, a = int(n_games), int(n_vars), int(n_actions)
     states = rng.normal(size=(b, k, 2))
     batch = LocalGameBatch(
@@ -235,7 +236,7 @@ def bench_stage(
     from swarmgames.game.potentials import FunctionPotentials
     from swarmgames.game.solvers import MeanFieldSolver
     from swarmgames.game.stage import solve_stage
-    from swarmgames.network.topology import TopologySnapshot
+    from swarmgames.topology import TopologySnapshot
 
     rng = np.random.default_rng(seed)
     # Area such that a disc of radius 0.8 h radius_m holds ~mean_neighbours robots (the

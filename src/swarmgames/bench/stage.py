@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 
 from swarmgames.config import ScenarioConfig, scaled_config
-from swarmgames.network.factory import make_provider
 from swarmgames.sim.controllers import GameController
+from swarmgames.sim.providers import provider_from_config
 from swarmgames.sim.runner import build_mission
 
 __all__ = ["StageBench", "StageParts"]
@@ -82,7 +82,7 @@ class StageBench:
         )
         sw, sim = self.config.swarm, self.config.sim
         self.states = self.mission.initial_states(sw.n_robots, rng_start)
-        self.provider: Any = make_provider(self.config.network, sw.n_robots, rng_net)
+        self.provider: Any = provider_from_config(self.config.network, sw.n_robots, rng_net)
         self.provider.reset(self.states[:, :3], 0.0)
         self.time = sim.warmup_s
         self.snapshot = self.provider.advance(self.time, self.states[:, :3])

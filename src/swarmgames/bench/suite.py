@@ -418,8 +418,8 @@ def _olsr_vs_ns3(n: int, sim_seconds: float, seed: int) -> dict:
     """The built-in OLSR (full protocol) and ns-3 on the same drifting-swarm trace."""
     from swarmgames.bench.network import random_swarm
     from swarmgames.config import NetworkConfig
-    from swarmgames.network.factory import make_provider
     from swarmgames.network.ns3_import import load_ns3, ns3_available
+    from swarmgames.sim.providers import provider_from_config
 
     rec: dict[str, Any] = {"benchmark": "olsr_vs_ns3", "n_robots": n, "sim_seconds": sim_seconds}
     if not ns3_available():
@@ -434,7 +434,7 @@ def _olsr_vs_ns3(n: int, sim_seconds: float, seed: int) -> dict:
     for backend in ("olsr", "ns3"):
         t0 = time.perf_counter()
         # Full tables: OLSR with TCs, as ns-3 always runs it.
-        prov = make_provider(NetworkConfig(backend=backend), n, seed, full_tables=True)
+        prov = provider_from_config(NetworkConfig(backend=backend), n, seed, full_tables=True)
         prov.reset(start, 0.0)
         snap = None
         for k in range(1, int(sim_seconds) + 1):

@@ -290,7 +290,9 @@ def _toml_lines(model: BaseModel, prefix: str, annotated: bool) -> list[str]:
         value = getattr(model, name)
         if isinstance(value, BaseModel):
             # The mission's section is written as the table named by the scenario.
-            table = model.scenario if isinstance(model, ScenarioConfig) and name == "mission" else name
+            table = (
+                model.scenario if isinstance(model, ScenarioConfig) and name == "mission" else name
+            )
             subsections.append((table, value))
             continue
         if annotated:
@@ -338,7 +340,9 @@ def apply_overrides(config: ScenarioConfig, overrides: dict[str, Any]) -> Scenar
     """``config`` with the fields at the dotted paths of ``overrides`` replaced, re-validated
     (see :meth:`ScenarioConfig.with_overrides`)."""
     if not isinstance(overrides, dict):
-        raise TypeError(f"overrides must be a dict of dotted paths (got {type(overrides).__name__})")
+        raise TypeError(
+            f"overrides must be a dict of dotted paths (got {type(overrides).__name__})"
+        )
     data = to_data(config)
     for key, value in overrides.items():
         if not (isinstance(key, str) and key.strip()):

@@ -182,7 +182,6 @@ class GameConfig(_Section):
         "size (less padding); 0 = automatic (one per 128 robots, at most 8).",
     )
 
-
     @field_validator("solver", mode="before")
     @classmethod
     def _renamed_solver(cls, value: Any) -> Any:

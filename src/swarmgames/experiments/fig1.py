@@ -28,9 +28,9 @@ import numpy as np
 import pandas as pd
 
 from swarmgames.config import NetworkConfig
-from swarmgames.network.factory import make_provider
 from swarmgames.network.propagation import max_range
-from swarmgames.network.validation import as_generator
+from swarmgames.rng import as_generator
+from swarmgames.sim.providers import provider_from_config
 
 __all__ = ["Fig1Result", "break_points", "fig1_positions", "reproduce_fig1"]
 
@@ -186,7 +186,7 @@ def reproduce_fig1(
     for layout in layouts:
         for d in spacings:
             pos = fig1_positions(layout, d)
-            provider = make_provider(cfg, 7, rng, full_tables=True)
+            provider = provider_from_config(cfg, 7, rng, full_tables=True)
             provider.reset(pos, 0.0)
             snap = provider.advance(settle_s, pos)
             rows.append(

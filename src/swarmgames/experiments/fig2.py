@@ -203,4 +203,3 @@ def reproduce_fig2(
         summaries=summaries,
         config=base,
     )
-

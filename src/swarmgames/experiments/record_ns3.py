@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from swarmgames.network.replay import replay
+from swarmgames.experiments.replay import replay
 from swarmgames.network.trace import PositionTrace
 
 __all__ = ["SCENARIOS", "hex_expand", "main", "random_waypoint", "record", "static_layout"]
@@ -129,7 +129,7 @@ def record(name: str, out: Path, run: int = 1) -> Path:
     factory, sample = SCENARIOS[name]
     positions = factory()
     trace = PositionTrace.from_frame(positions)
-    provider = Ns3Provider(n_nodes=trace.n_nodes, run=run)
+    provider = Ns3Provider(n_robots=trace.n_robots, run=run)
     start = time.perf_counter()
     hops = replay(trace, provider, sample).hops
     wall = time.perf_counter() - start

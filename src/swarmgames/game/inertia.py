@@ -53,7 +53,7 @@ class Inertia:
     --------
     >>> import numpy as np
     >>> from swarmgames.game import FunctionPotentials, DisplacementActions, local_games
-    >>> from swarmgames.network.topology import TopologySnapshot
+    >>> from swarmgames.topology import TopologySnapshot
     >>> snap = TopologySnapshot.from_hop_matrix(0.0, np.zeros((1, 1), int))
     >>> batch = local_games(snap, 1, np.zeros((1, 3)), DisplacementActions.headings(1.0, 4, dim=3))
     >>> pot = Inertia(FunctionPotentials(lambda s: np.zeros(s.shape[:-1])), cost=0.5)

@@ -32,7 +32,7 @@ import numpy as np
 from swarmgames.game.actions import ActionModel, action_mask_of
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.virtual import neighbourhood_means, reaches_outside
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 __all__ = [
     "LocalView",
@@ -111,7 +111,7 @@ def broadcast(snapshot: TopologySnapshot, h: int, states: np.ndarray) -> Message
     """
     if not isinstance(h, (int, np.integer)) or h < 1:
         raise ValueError(f"h must be an integer >= 1 (got {h})")
-    states = _validate_states(states, snapshot.n_nodes)
+    states = _validate_states(states, snapshot.n_robots)
     nbh = snapshot.neighbourhood_matrix(int(h))
     nbh.sort_indices()
     return Messages(
@@ -365,7 +365,7 @@ def centralised_game(
     """
     if not isinstance(h, (int, np.integer)) or h < 1:
         raise ValueError(f"h must be an integer >= 1 (got {h})")
-    n = snapshot.n_nodes
+    n = snapshot.n_robots
     states = _validate_states(states, n)
     pair = snapshot.neighbourhood_matrix(int(h)).toarray()
     return _game_from_states(

@@ -44,7 +44,7 @@ from swarmgames.game.local import (
 )
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
 from swarmgames.game.solvers import GameSolution, Solver, normalise_rng, sample_actions
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 __all__ = [
     "StageSolution",
@@ -461,4 +461,3 @@ def stage_regret(
     batch = local_games(snapshot, h, states, action_model, virtual_mean=False)
     payoffs = evaluate_payoffs(batch, potentials, alpha_a, alpha_b)
     return global_regret(payoffs, joint_actions)
-

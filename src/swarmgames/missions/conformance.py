@@ -33,7 +33,7 @@ import numpy as np
 from swarmgames.game.actions import action_mask_of
 from swarmgames.game.checks import check_action_model, check_potentials
 from swarmgames.game.local import local_games
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["RESERVED_METRICS", "MissionCheckError", "check_mission"]
 
@@ -69,7 +69,9 @@ class MissionCheckError(ValueError):
     def __init__(self, name: str, problems: list[str]) -> None:
         self.problems = list(problems)
         lines = "\n  ".join(self.problems)
-        super().__init__(f"mission {name!r} does not conform ({len(problems)} problems):\n  {lines}")
+        super().__init__(
+            f"mission {name!r} does not conform ({len(problems)} problems):\n  {lines}"
+        )
 
 
 def _line_snapshot(n: int) -> TopologySnapshot:
@@ -148,13 +150,13 @@ def check_mission(mission: Any, n_robots: int = 4, seed: int = 0) -> None:
         fail(f"state_dim must be an integer >= 3 (x, y, z first) (got {dim!r})")
 
     # initial_states: shape, finite, seeded, no global random state.
-    before = np.random.get_state()[1].copy()
+    before = np.random.get_state()[1].copy()  # noqa: NPY002 - checking it is untouched
     try:
         s0 = np.asarray(mission.initial_states(n_robots, np.random.default_rng(seed)), float)
         again = np.asarray(mission.initial_states(n_robots, np.random.default_rng(seed)), float)
     except Exception as exc:
         fail(f"initial_states(n_robots, rng) raised {type(exc).__name__}: {exc}")
-    if not np.array_equal(np.random.get_state()[1], before):
+    if not np.array_equal(np.random.get_state()[1], before):  # noqa: NPY002
         problems.append("initial_states draws from numpy's global random state; use the rng")
     if s0.shape != (n_robots, dim):
         fail(f"initial_states must return shape ({n_robots}, {dim}) (got {s0.shape})")
@@ -233,8 +235,10 @@ def _optional_hooks(mission: Any, states: np.ndarray, keys: list[str]) -> list[s
     if hasattr(mission, "extent"):
         try:
             box = np.asarray(mission.extent(), dtype=float)
-            if box.shape != (4,) or not np.all(np.isfinite(box)) or not (
-                box[0] < box[1] and box[2] < box[3]
+            if (
+                box.shape != (4,)
+                or not np.all(np.isfinite(box))
+                or not (box[0] < box[1] and box[2] < box[3])
             ):
                 found.append(f"extent() must be (xmin, xmax, ymin, ymax), finite (got {box})")
         except Exception as exc:

@@ -285,4 +285,3 @@ def uav_actions(swarm, period_s: float, bounds=None) -> HeadingActions | Acceler
             swarm.accel_step_m_s2, swarm.accel_levels, swarm.max_speed_m_s, period_s, bounds
         )
     return HeadingActions(swarm.step_m, swarm.n_headings, bounds)
-

@@ -6,10 +6,11 @@ from swarmgames.network.factory import BACKENDS, make_provider
 from swarmgames.network.links import LinkGraph, link_graph
 from swarmgames.network.olsr.provider import OlsrProvider
 from swarmgames.network.oracle import OracleProvider
+from swarmgames.network.parameters import OlsrParameters, RadioParameters
 from swarmgames.network.propagation import PropagationModel, max_range
 from swarmgames.network.provider import NeighbourhoodProvider
-from swarmgames.network.topology import TopologySnapshot
 from swarmgames.network.trace import PositionTrace, read_positions
+from swarmgames.topology import TopologySnapshot
 
 __all__ = [
     "BACKENDS",
@@ -17,10 +18,12 @@ __all__ = [
     "KnnProvider",
     "LinkGraph",
     "NeighbourhoodProvider",
+    "OlsrParameters",
     "OlsrProvider",
     "OracleProvider",
     "PositionTrace",
     "PropagationModel",
+    "RadioParameters",
     "TopologySnapshot",
     "check_provider",
     "link_graph",
@@ -28,6 +31,3 @@ __all__ = [
     "max_range",
     "read_positions",
 ]
-
-# ``replay`` and ``ReplayResult`` live in :mod:`swarmgames.network.replay`; they are not
-# re-exported here so that the function does not shadow its module.

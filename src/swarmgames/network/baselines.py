@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from swarmgames.network.topology import TopologySnapshot
 from swarmgames.network.validation import check_positions, check_time
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["DiskProvider", "KnnProvider"]
 
@@ -22,10 +22,10 @@ class _InstantProvider:
 
     name = "instant"
 
-    def __init__(self, n_nodes: int) -> None:
-        if int(n_nodes) < 1:
-            raise ValueError(f"n_nodes must be >= 1 (got {n_nodes})")
-        self.n_nodes = int(n_nodes)
+    def __init__(self, n_robots: int) -> None:
+        if int(n_robots) < 1:
+            raise ValueError(f"n_robots must be >= 1 (got {n_robots})")
+        self.n_robots = int(n_robots)
         self._time = 0.0
 
     @property
@@ -36,17 +36,17 @@ class _InstantProvider:
     def reset(self, positions: np.ndarray, start_time: float = 0.0) -> TopologySnapshot:
         """Place the robots at ``start_time``."""
         self._time = float(start_time)
-        return self._snapshot(check_positions(positions, self.n_nodes))
+        return self._snapshot(check_positions(positions, self.n_robots))
 
     def advance(self, to_time: float, positions: np.ndarray) -> TopologySnapshot:
         """Snapshot of the robots at ``positions`` at ``to_time`` (no lag)."""
-        pos = check_positions(positions, self.n_nodes)
+        pos = check_positions(positions, self.n_robots)
         self._time = check_time(to_time, self._time)
         return self._snapshot(pos)
 
     def step(self, to_time: float, positions: np.ndarray) -> None:
         """Move the clock to ``to_time`` without building a snapshot (nothing to simulate)."""
-        check_positions(positions, self.n_nodes)
+        check_positions(positions, self.n_robots)
         self._time = check_time(to_time, self._time)
 
     def _snapshot(self, pos: np.ndarray) -> TopologySnapshot:  # pragma: no cover - abstract
@@ -58,7 +58,7 @@ class DiskProvider(_InstantProvider):
 
     Parameters
     ----------
-    n_nodes : int
+    n_robots : int
         Number of robots.
     radius : float
         Communication radius, metres (> 0).
@@ -72,8 +72,8 @@ class DiskProvider(_InstantProvider):
 
     name = "disk"
 
-    def __init__(self, n_nodes: int, radius: float = 368.84) -> None:
-        super().__init__(n_nodes)
+    def __init__(self, n_robots: int, radius: float = 368.84) -> None:
+        super().__init__(n_robots)
         if not np.isfinite(radius) or radius <= 0:
             raise ValueError(f"radius must be > 0 (got {radius})")
         self.radius = float(radius)
@@ -82,7 +82,7 @@ class DiskProvider(_InstantProvider):
         pairs = cKDTree(pos).query_pairs(self.radius, output_type="ndarray")
         owner = np.r_[pairs[:, 0], pairs[:, 1]]
         dest = np.r_[pairs[:, 1], pairs[:, 0]]
-        return TopologySnapshot(self._time, self.n_nodes, owner, dest, np.ones(owner.size))
+        return TopologySnapshot(self._time, self.n_robots, owner, dest, np.ones(owner.size))
 
 
 class KnnProvider(_InstantProvider):
@@ -100,29 +100,29 @@ class KnnProvider(_InstantProvider):
 
     name = "knn"
 
-    def __init__(self, n_nodes: int, k: int = 4) -> None:
-        super().__init__(n_nodes)
+    def __init__(self, n_robots: int, k: int = 4) -> None:
+        super().__init__(n_robots)
         if int(k) < 1:
             raise ValueError(f"k must be >= 1 (got {k})")
         self.k = int(k)
 
     def _snapshot(self, pos: np.ndarray) -> TopologySnapshot:
-        k = min(self.k, self.n_nodes - 1)
+        k = min(self.k, self.n_robots - 1)
         if k == 0:
             e = np.zeros(0, dtype=np.int32)
-            return TopologySnapshot(self._time, self.n_nodes, e, e, e)
+            return TopologySnapshot(self._time, self.n_robots, e, e, e)
         _, idx = cKDTree(pos).query(pos, k=k + 1)
-        idx = np.asarray(idx).reshape(self.n_nodes, k + 1)
-        owner = np.repeat(np.arange(self.n_nodes), k + 1)
+        idx = np.asarray(idx).reshape(self.n_robots, k + 1)
+        owner = np.repeat(np.arange(self.n_robots), k + 1)
         dest = idx.ravel()
         # Drop self (co-located robots may push self out of the first column).
         not_self = dest != owner
         owner, dest = owner[not_self], dest[not_self]
         # Keep the first k others per owner.
         rank = np.arange(owner.size) - np.repeat(
-            np.searchsorted(owner, np.arange(self.n_nodes)),
-            np.bincount(owner, minlength=self.n_nodes),
+            np.searchsorted(owner, np.arange(self.n_robots)),
+            np.bincount(owner, minlength=self.n_robots),
         )
         keep = rank < k
         owner, dest = owner[keep], dest[keep]
-        return TopologySnapshot(self._time, self.n_nodes, owner, dest, np.ones(owner.size))
+        return TopologySnapshot(self._time, self.n_robots, owner, dest, np.ones(owner.size))

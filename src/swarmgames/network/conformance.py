@@ -9,7 +9,7 @@ Checked:
 
 * ``name`` is a non-empty string; ``reset`` returns a snapshot at ``start_time`` and sets
   ``time``; ``advance`` returns a snapshot at ``to_time`` and moves ``time``;
-* snapshots have ``n_nodes`` robots, entries sorted by ``(owner, dest)``, no ``owner == dest``,
+* snapshots have ``n_robots`` robots, entries sorted by ``(owner, dest)``, no ``owner == dest``,
   hop counts >= 1, read-only arrays, and a next hop that is ``-1`` or a 1-hop neighbour of the
   owner;
 * moving backwards in time raises ``ValueError``; NaN positions raise ``ValueError``;
@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["ProviderConformanceError", "check_provider", "check_snapshot"]
 
@@ -34,15 +34,15 @@ def _fail(msg: str) -> None:
     raise ProviderConformanceError(msg)
 
 
-def check_snapshot(snap: TopologySnapshot, n_nodes: int, time: float) -> None:
+def check_snapshot(snap: TopologySnapshot, n_robots: int, time: float) -> None:
     """Check one snapshot's invariants (see module docstring)."""
     if not isinstance(snap, TopologySnapshot):
         _fail(f"expected a TopologySnapshot (got {type(snap).__name__})")
-    if snap.n_nodes != n_nodes:
-        _fail(f"snapshot has n_nodes={snap.n_nodes}, expected {n_nodes}")
+    if snap.n_robots != n_robots:
+        _fail(f"snapshot has n_robots={snap.n_robots}, expected {n_robots}")
     if not np.isclose(snap.time, time):
         _fail(f"snapshot time is {snap.time}, expected {time}")
-    key = snap.owner.astype(np.int64) * n_nodes + snap.dest
+    key = snap.owner.astype(np.int64) * n_robots + snap.dest
     if key.size and (np.diff(key) <= 0).any():
         _fail("entries must be unique and sorted by (owner, dest)")
     if (snap.owner == snap.dest).any():
@@ -55,14 +55,14 @@ def check_snapshot(snap: TopologySnapshot, n_nodes: int, time: float) -> None:
     has_next = snap.next_hop >= 0
     if has_next.any():
         one = snap.hops == 1
-        one_hop = set((snap.owner[one].astype(np.int64) * n_nodes + snap.dest[one]).tolist())
-        pairs = snap.owner[has_next].astype(np.int64) * n_nodes + snap.next_hop[has_next]
+        one_hop = set((snap.owner[one].astype(np.int64) * n_robots + snap.dest[one]).tolist())
+        pairs = snap.owner[has_next].astype(np.int64) * n_robots + snap.next_hop[has_next]
         if not set(pairs.tolist()) <= one_hop:
             _fail("every next hop must be a 1-hop neighbour of the table's owner")
 
 
-def check_provider(provider, n_nodes: int = 6, range_limited: bool = True) -> None:
-    """Run the conformance scenario on a freshly built ``provider`` for ``n_nodes`` (>= 3)
+def check_provider(provider, n_robots: int = 6, range_limited: bool = True) -> None:
+    """Run the conformance scenario on a freshly built ``provider`` for ``n_robots`` (>= 3)
     robots. ``range_limited=False`` skips the isolated-robot rule (for range-free baselines).
 
     Raises
@@ -75,24 +75,24 @@ def check_provider(provider, n_nodes: int = 6, range_limited: bool = True) -> No
     >>> from swarmgames.network.oracle import OracleProvider
     >>> check_provider(OracleProvider(6))
     """
-    if n_nodes < 3:
-        raise ValueError(f"n_nodes must be >= 3 (got {n_nodes})")
+    if n_robots < 3:
+        raise ValueError(f"n_robots must be >= 3 (got {n_robots})")
     name = getattr(provider, "name", None)
     if not isinstance(name, str) or not name:
         _fail(f"provider.name must be a non-empty string (got {name!r})")
     # A line at 200 m (within the 368.84 m default range) and one robot 10 km away.
-    pos = np.c_[np.arange(n_nodes) * 200.0, np.zeros(n_nodes), np.zeros(n_nodes)]
+    pos = np.c_[np.arange(n_robots) * 200.0, np.zeros(n_robots), np.zeros(n_robots)]
     pos[-1] = [10_000.0, 10_000.0, 0.0]
     snap = provider.reset(pos, 1.0)
     if not np.isclose(provider.time, 1.0):
         _fail(f"reset(start_time=1.0) must set time to 1.0 (got {provider.time})")
-    check_snapshot(snap, n_nodes, 1.0)
+    check_snapshot(snap, n_robots, 1.0)
     for t in (3.0, 10.5, 31.0):
         snap = provider.advance(t, pos)
         if not np.isclose(provider.time, t):
             _fail(f"advance({t}) must set time to {t} (got {provider.time})")
-        check_snapshot(snap, n_nodes, t)
-    isolated = n_nodes - 1
+        check_snapshot(snap, n_robots, t)
+    isolated = n_robots - 1
     if range_limited and ((snap.owner == isolated).any() or (snap.dest == isolated).any()):
         _fail("an isolated robot must have no routes after settling")
     if not (snap.owner == 0).any():

@@ -29,11 +29,11 @@ __all__ = ["LinkGraph", "link_graph"]
 
 @dataclass(frozen=True, eq=False)
 class LinkGraph:
-    """Symmetric radio link graph of ``n_nodes`` robots (immutable).
+    """Symmetric radio link graph of ``n_robots`` robots (immutable).
 
     Parameters
     ----------
-    n_nodes : int
+    n_robots : int
         Number of robots.
     i, j : ndarray of int32, shape (E,)
         Endpoints of each undirected link, ``i < j``, sorted.
@@ -42,27 +42,28 @@ class LinkGraph:
         ``indices[indptr[k]:indptr[k + 1]]``, sorted.
     """
 
-    n_nodes: int
+    n_robots: int
     i: np.ndarray
     j: np.ndarray
     indptr: np.ndarray
     indices: np.ndarray
 
     @classmethod
-    def from_pairs(cls, n_nodes: int, i: np.ndarray, j: np.ndarray) -> LinkGraph:
+    def from_pairs(cls, n_robots: int, i: np.ndarray, j: np.ndarray) -> LinkGraph:
         """Build from undirected pairs (any order, ``i != j``)."""
         a = np.minimum(i, j).astype(np.int32)
         b = np.maximum(i, j).astype(np.int32)
         order = np.lexsort((b, a))
         a, b = a[order], b[order]
         adj = sp.csr_array(
-            (np.ones(2 * a.size, dtype=bool), (np.r_[a, b], np.r_[b, a])), shape=(n_nodes, n_nodes)
+            (np.ones(2 * a.size, dtype=bool), (np.r_[a, b], np.r_[b, a])),
+            shape=(n_robots, n_robots),
         )
         adj.sort_indices()
         arrays = [a, b, adj.indptr.astype(np.int32), adj.indices.astype(np.int32)]
         for arr in arrays:
             arr.setflags(write=False)
-        return cls(n_nodes, *arrays)
+        return cls(n_robots, *arrays)
 
     @property
     def n_links(self) -> int:
@@ -72,7 +73,7 @@ class LinkGraph:
     def adjacency(self) -> sp.csr_array:
         """Boolean symmetric CSR adjacency matrix."""
         data = np.ones(self.indices.size, dtype=bool)
-        return sp.csr_array((data, self.indices, self.indptr), shape=(self.n_nodes,) * 2)
+        return sp.csr_array((data, self.indices, self.indptr), shape=(self.n_robots,) * 2)
 
     def degree(self) -> np.ndarray:
         """Number of links of every node, shape (N,)."""

@@ -53,12 +53,13 @@ from typing import Any
 
 import numpy as np
 
-from swarmgames.config import NetworkConfig, OlsrConfig, RadioConfig
 from swarmgames.errors import ConfigError
 from swarmgames.network.ns3_import import load_ns3, quiet_stderr
+from swarmgames.network.parameters import OlsrParameters, RadioParameters
 from swarmgames.network.propagation import new_shadowing_key, pair_gaussians
-from swarmgames.network.topology import TopologySnapshot
-from swarmgames.network.validation import as_generator, check_positions, check_time
+from swarmgames.network.validation import check_positions, check_time
+from swarmgames.rng import as_generator
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["Ns3Provider", "check_ns3_config"]
 
@@ -72,14 +73,25 @@ _tokens = itertools.count(1)
 _owner: list[int] = [0]
 
 
-def check_ns3_config(config: NetworkConfig) -> None:
-    """Raise :class:`ConfigError` for settings that ns-3's OLSR cannot reproduce.
+def check_ns3_config(olsr: OlsrParameters) -> None:
+    """Raise :class:`ConfigError` for OLSR settings that ns-3's OLSR cannot reproduce.
 
     ns-3 3.44 derives its OLSR timers from the emission intervals (``olsr-routing-protocol.cc``:
     ``OLSR_MAXJITTER = hello / 4``, ``OLSR_NEIGHB_HOLD_TIME = 3 hello``,
     ``OLSR_TOP_HOLD_TIME = 3 tc``, ``OLSR_DUP_HOLD_TIME = 30 s``) and always sends TCs.
+
+    Parameters
+    ----------
+    olsr : OlsrParameters
+        The OLSR timing asked for; the messages name the fields as ``network.olsr.<field>``,
+        the configuration they come from.
+
+    Raises
+    ------
+    ConfigError
+        Listing every field that ns-3 would not honour.
     """
-    o: OlsrConfig = config.olsr
+    o = olsr
     derived = (
         ("max_jitter_s", o.max_jitter_s, o.hello_interval_s / 4, "hello_interval_s / 4"),
         ("neighbour_hold_s", o.neighbour_hold_s, 3 * o.hello_interval_s, "3 × hello_interval_s"),
@@ -110,10 +122,12 @@ class Ns3Provider:
 
     Parameters
     ----------
-    config : NetworkConfig, optional
-        Radio and OLSR settings (``config.radio``, ``config.olsr``); defaults as in the paper.
-    n_nodes : int, optional
+    n_robots : int, optional
         Number of robots; if given, ``reset`` checks the positions against it.
+    radio : RadioParameters, optional
+        Propagation and reception (default: ns-3 defaults, as in the paper).
+    olsr : OlsrParameters, optional
+        OLSR timing (default: ns-3 defaults); see :func:`check_ns3_config`.
     seed : int, numpy.random.Generator or None
         Source of every random choice: each ``reset`` draws ns-3's run number (OLSR jitter,
         Nakagami fading, redrawn per packet by ns-3) from it; the static shadowing field's key
@@ -131,7 +145,7 @@ class Ns3Provider:
     BackendUnavailableError
         If the ``ns3`` package is not installed (``pip install 'swarmgames[ns3]'``).
     ConfigError
-        If ``config`` asks for OLSR timers that ns-3 cannot reproduce.
+        If ``olsr`` asks for OLSR timers that ns-3 cannot reproduce.
 
     Notes
     -----
@@ -153,26 +167,26 @@ class Ns3Provider:
 
     def __init__(
         self,
-        config: NetworkConfig | None = None,
-        n_nodes: int | None = None,
+        n_robots: int | None = None,
+        radio: RadioParameters | None = None,
+        olsr: OlsrParameters | None = None,
         seed: int | np.random.Generator | None = None,
         *,
         run: int | None = None,
         shadowing_key: int | None = None,
     ) -> None:
-        self.config = NetworkConfig() if config is None else config
-        if not isinstance(self.config, NetworkConfig):
-            raise TypeError(f"config must be a NetworkConfig (got {type(self.config).__name__})")
-        check_ns3_config(self.config)
-        if n_nodes is not None and int(n_nodes) < 1:
-            raise ValueError(f"n_nodes must be >= 1 (got {n_nodes})")
-        self.n_nodes = None if n_nodes is None else int(n_nodes)
+        self.radio = RadioParameters() if radio is None else radio
+        self.olsr = OlsrParameters() if olsr is None else olsr
+        check_ns3_config(self.olsr)
+        if n_robots is not None and int(n_robots) < 1:
+            raise ValueError(f"n_robots must be >= 1 (got {n_robots})")
+        self.n_robots = None if n_robots is None else int(n_robots)
         if run is not None and not (isinstance(run, (int, np.integer)) and run >= 1):
             raise ValueError(f"run must be an integer >= 1 (got {run!r})")
         self._run = None if run is None else int(run)
         self._rng = as_generator(seed)
         self._shadowing_key = shadowing_key
-        if self.config.radio.shadowing_sigma_db > 0 and shadowing_key is None:
+        if self.radio.shadowing_sigma_db > 0 and shadowing_key is None:
             self._shadowing_key = new_shadowing_key(self._rng)
         self._ns = load_ns3()
         self._token = next(_tokens)
@@ -184,7 +198,7 @@ class Ns3Provider:
         self.run_number: int | None = None
 
     def __repr__(self) -> str:
-        return f"Ns3Provider(n_nodes={self._n or self.n_nodes}, run={self.run_number})"
+        return f"Ns3Provider(n_robots={self._n or self.n_robots}, run={self.run_number})"
 
     # -- NeighbourhoodProvider -----------------------------------------------------------------
 
@@ -199,7 +213,7 @@ class Ns3Provider:
         Destroys any previous scenario of this process (of this or another provider).
         Returns the (empty) routing tables at ``start_time``.
         """
-        p = check_positions(positions, self.n_nodes)
+        p = check_positions(positions, self.n_robots)
         if not math.isfinite(start_time):
             raise ValueError(f"start_time must be finite (got {start_time})")
         with quiet_stderr():
@@ -247,7 +261,7 @@ class Ns3Provider:
         keep = (dest_i >= 0) & (dest_i != np.asarray(owner, dtype=np.int64))
         return TopologySnapshot(
             time=self.time,
-            n_nodes=self._n,
+            n_robots=self._n,
             owner=np.asarray(owner, dtype=np.int32)[keep],
             dest=dest_i[keep],
             hops=np.asarray(hops, dtype=np.int16)[keep],
@@ -291,8 +305,7 @@ class Ns3Provider:
 
     def _build(self, p: np.ndarray) -> None:
         ns = self._ns
-        radio: RadioConfig = self.config.radio
-        olsr: OlsrConfig = self.config.olsr
+        radio, olsr = self.radio, self.olsr
         n = p.shape[0]
         ns.Simulator.Destroy()
         ns.Ipv4AddressGenerator.Reset()
@@ -347,7 +360,7 @@ class Ns3Provider:
         self._n = n
         self._nodes = nodes
 
-    def _channel(self, radio: RadioConfig) -> Any:
+    def _channel(self, radio: RadioParameters) -> Any:
         ns = self._ns
         if radio.loss_model == "friis":
             loss = ns.CreateObject[ns.FriisPropagationLossModel]()

@@ -9,13 +9,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.sparse import csgraph
 
-from swarmgames.config import RadioConfig
 from swarmgames.network.baselines import _InstantProvider
 from swarmgames.network.links import LinkGraph, link_graph
 from swarmgames.network.olsr.tables import sorted_contains
+from swarmgames.network.parameters import RadioParameters
 from swarmgames.network.propagation import channel_model
-from swarmgames.network.topology import TopologySnapshot
-from swarmgames.network.validation import as_generator
+from swarmgames.rng import as_generator
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["OracleProvider", "bfs_hops", "sparse_bfs_routes"]
 
@@ -68,9 +68,9 @@ def sparse_bfs_routes(
     owner, dest, hops, next_hop : ndarray
         Sorted by ``(owner, dest)``.
     """
-    n = np.int64(graph.n_nodes)
+    n = np.int64(graph.n_robots)
     deg = np.diff(graph.indptr)
-    owner = np.repeat(np.arange(graph.n_nodes, dtype=np.int64), deg)
+    owner = np.repeat(np.arange(graph.n_robots, dtype=np.int64), deg)
     dest = graph.indices.astype(np.int64)
     keys = [owner * n + dest]
     hops = [np.ones(dest.size, dtype=np.int16)]
@@ -119,9 +119,9 @@ class OracleProvider(_InstantProvider):
 
     Parameters
     ----------
-    n_nodes : int
+    n_robots : int
         Number of robots.
-    radio : RadioConfig, optional
+    radio : RadioParameters, optional
         Propagation and reception model.
     max_hops : int, optional
         Keep only routes of at most this many hops (N_i(h) needs no more). With more than
@@ -145,20 +145,20 @@ class OracleProvider(_InstantProvider):
 
     def __init__(
         self,
-        n_nodes: int,
-        radio: RadioConfig | None = None,
+        n_robots: int,
+        radio: RadioParameters | None = None,
         max_hops: int | None = None,
         seed: int | np.random.Generator | None = None,
         shadowing_key: int | None = None,
     ) -> None:
-        super().__init__(n_nodes)
+        super().__init__(n_robots)
         self.max_hops = max_hops
         self._rng = as_generator(seed)
-        self.model = channel_model(radio or RadioConfig(), self._rng, shadowing_key)
+        self.model = channel_model(radio or RadioParameters(), self._rng, shadowing_key)
 
     def _snapshot(self, pos: np.ndarray) -> TopologySnapshot:
         g = link_graph(pos, self.model, self._rng)
-        if self.max_hops is not None and self.n_nodes > DENSE_NODES:
-            return TopologySnapshot(self._time, self.n_nodes, *sparse_bfs_routes(g, self.max_hops))
+        if self.max_hops is not None and self.n_robots > DENSE_NODES:
+            return TopologySnapshot(self._time, self.n_robots, *sparse_bfs_routes(g, self.max_hops))
         hops, nxt = bfs_hops(g.adjacency(), self.max_hops)
         return TopologySnapshot.from_hop_matrix(self._time, hops, nxt)

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from swarmgames.config import RadioConfig
+from swarmgames.network.parameters import RadioParameters
 
 __all__ = [
     "SPEED_OF_LIGHT",
@@ -174,7 +174,7 @@ class PropagationModel:
 
     Parameters
     ----------
-    radio : RadioConfig
+    radio : RadioParameters
         Transmit power, loss model and its parameters, shadowing, fading, reception threshold.
 
     Notes
@@ -183,7 +183,7 @@ class PropagationModel:
     preamble-detection gate at 6 Mbit/s, REFERENCE.md section 2).
     """
 
-    radio: RadioConfig = field(default_factory=RadioConfig)
+    radio: RadioParameters = field(default_factory=RadioParameters)
     shadowing_key: int | None = None
 
     @property
@@ -255,7 +255,7 @@ class PropagationModel:
 
 
 def channel_model(
-    radio: RadioConfig, rng: np.random.Generator, shadowing_key: int | None = None
+    radio: RadioParameters, rng: np.random.Generator, shadowing_key: int | None = None
 ) -> PropagationModel:
     """The propagation model of a provider: with shadowing on, a static per-pair channel keyed
     by ``shadowing_key`` or, if None, by a key drawn from ``rng`` (only then, so runs without
@@ -265,7 +265,7 @@ def channel_model(
     return PropagationModel(radio, shadowing_key if radio.shadowing_sigma_db > 0 else None)
 
 
-def _random_margin_db(radio: RadioConfig) -> float:
+def _random_margin_db(radio: RadioParameters) -> float:
     margin = 0.0
     if radio.shadowing_sigma_db > 0:
         margin += radio.shadowing_sigma_db * float(stats.norm.isf(RANGE_TAIL_PROBABILITY))
@@ -275,7 +275,7 @@ def _random_margin_db(radio: RadioConfig) -> float:
     return margin
 
 
-def max_range(radio: RadioConfig) -> float:
+def max_range(radio: RadioParameters) -> float:
     """Distance (m) beyond which no link is possible (or only with probability < 1e-6).
 
     Friis: ``d_max = (c / f) / (4 pi) * 10^((Pt - Pth + M - 10 log10 L) / 20)``; log-distance:
@@ -285,7 +285,7 @@ def max_range(radio: RadioConfig) -> float:
 
     Examples
     --------
-    >>> round(max_range(RadioConfig()), 2)
+    >>> round(max_range(RadioParameters()), 2)
     368.84
     """
     budget = radio.tx_power_dbm - radio.rx_threshold_dbm + _random_margin_db(radio)

@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from swarmgames.errors import InputDataError
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["RecordedProvider", "Recording", "read_recording"]
 
@@ -44,7 +44,7 @@ class RecordedProvider:
     hops : DataFrame
         Columns ``t, node, dest, hops``: every reachable destination of every node at every
         sample time.
-    n_nodes : int
+    n_robots : int
         Number of robots of the recording.
     sample_every : float
         Sampling period of the recording, seconds. A sample time without rows means empty
@@ -60,7 +60,7 @@ class RecordedProvider:
     """
 
     def __init__(
-        self, hops: pd.DataFrame, n_nodes: int, sample_every: float, *, name: str = "recorded"
+        self, hops: pd.DataFrame, n_robots: int, sample_every: float, *, name: str = "recorded"
     ) -> None:
         missing = [c for c in _HOPS_COLUMNS if c not in hops.columns]
         if missing:
@@ -69,19 +69,19 @@ class RecordedProvider:
             )
         if not (math.isfinite(sample_every) and sample_every > 0):
             raise ValueError(f"sample_every must be > 0 (got {sample_every})")
-        if n_nodes < 1:
-            raise ValueError(f"n_nodes must be >= 1 (got {n_nodes})")
+        if n_robots < 1:
+            raise ValueError(f"n_robots must be >= 1 (got {n_robots})")
         self.name = name
-        self.n_nodes = int(n_nodes)
+        self.n_robots = int(n_robots)
         self.sample_every = float(sample_every)
         t = hops["t"].to_numpy(dtype=float)
         cols = {c: hops[c].to_numpy(dtype=np.int64) for c in _HOPS_COLUMNS[1:]}
-        bad = (cols["node"] < 0) | (cols["node"] >= n_nodes) | (cols["dest"] < 0)
-        bad |= (cols["dest"] >= n_nodes) | (cols["hops"] < 1) | ~np.isfinite(t)
+        bad = (cols["node"] < 0) | (cols["node"] >= n_robots) | (cols["dest"] < 0)
+        bad |= (cols["dest"] >= n_robots) | (cols["hops"] < 1) | ~np.isfinite(t)
         if bad.any():
             row = int(np.nonzero(bad)[0][0])
             raise InputDataError(
-                f"hops row {row + 2}: node and dest must be in [0, {n_nodes}) and hops >= 1 "
+                f"hops row {row + 2}: node and dest must be in [0, {n_robots}) and hops >= 1 "
                 f"(got {hops.iloc[row].to_dict()})"
             )
         keys = np.array([_key(x) for x in t], dtype=np.int64)
@@ -104,8 +104,8 @@ class RecordedProvider:
     def reset(self, positions: np.ndarray, start_time: float = 0.0) -> TopologySnapshot:
         """Start the replay at ``start_time``; ``positions`` must have one row per robot."""
         n = np.asarray(positions).shape[0]
-        if n != self.n_nodes:
-            raise ValueError(f"positions must have {self.n_nodes} rows (got {n})")
+        if n != self.n_robots:
+            raise ValueError(f"positions must have {self.n_robots} rows (got {n})")
         self._time = float(start_time)
         return self._snapshot()
 
@@ -123,7 +123,7 @@ class RecordedProvider:
             empty = np.empty(0, dtype=np.int64)
             rows = (empty, empty, empty)
         node, dest, hops = rows
-        return TopologySnapshot(self._time, self.n_nodes, node, dest, hops)
+        return TopologySnapshot(self._time, self.n_robots, node, dest, hops)
 
 
 @dataclass(frozen=True)
@@ -145,7 +145,7 @@ class Recording:
     meta: dict[str, Any]
 
     @property
-    def n_nodes(self) -> int:
+    def n_robots(self) -> int:
         """Number of robots."""
         return int(self.positions["node"].max()) + 1
 
@@ -156,7 +156,7 @@ class Recording:
 
     def provider(self, name: str = "recorded") -> RecordedProvider:
         """The recorded tables as a :class:`RecordedProvider`."""
-        return RecordedProvider(self.hops, self.n_nodes, self.sample_every, name=name)
+        return RecordedProvider(self.hops, self.n_robots, self.sample_every, name=name)
 
 
 def read_recording(folder: str | Path) -> Recording:

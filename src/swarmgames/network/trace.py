@@ -21,7 +21,7 @@ _COLUMNS = ("t", "node", "x", "y", "z")
 
 @dataclass(frozen=True, eq=False)
 class PositionTrace:
-    """Piecewise-constant positions of ``n_nodes`` robots (immutable).
+    """Piecewise-constant positions of ``n_robots`` robots (immutable).
 
     Parameters
     ----------
@@ -35,7 +35,7 @@ class PositionTrace:
     positions: np.ndarray
 
     @property
-    def n_nodes(self) -> int:
+    def n_robots(self) -> int:
         """Number of robots N."""
         return int(self.positions.shape[1])
 

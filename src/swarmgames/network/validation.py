@@ -1,22 +1,13 @@
-"""Boundary checks shared by the network providers: positions, times, seeds."""
+"""Boundary checks shared by the network providers: positions and times."""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["as_generator", "check_positions", "check_time"]
+__all__ = ["check_positions", "check_time"]
 
 
-def as_generator(seed: int | np.random.Generator | None) -> np.random.Generator:
-    """Normalise ``seed`` (int, Generator or None) to a ``numpy.random.Generator``, once."""
-    if isinstance(seed, np.random.Generator):
-        return seed
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))):
-        raise TypeError(f"seed must be an int, a numpy Generator or None (got {seed!r})")
-    return np.random.default_rng(seed)
-
-
-def check_positions(positions: np.ndarray, n_nodes: int | None = None) -> np.ndarray:
+def check_positions(positions: np.ndarray, n_robots: int | None = None) -> np.ndarray:
     """Return ``positions`` as a float array of shape (N, 3) (a (N, 2) input gets z = 0).
 
     Raises
@@ -30,8 +21,8 @@ def check_positions(positions: np.ndarray, n_nodes: int | None = None) -> np.nda
         raise ValueError(f"positions must have shape (N, 3) or (N, 2) (got {pos.shape})")
     if pos.shape[1] == 2:
         pos = np.c_[pos, np.zeros(pos.shape[0])]
-    if n_nodes is not None and pos.shape[0] != n_nodes:
-        raise ValueError(f"positions must have {n_nodes} rows, one per node (got {pos.shape[0]})")
+    if n_robots is not None and pos.shape[0] != n_robots:
+        raise ValueError(f"positions must have {n_robots} rows, one per node (got {pos.shape[0]})")
     bad = ~np.isfinite(pos).all(axis=1)
     if bad.any():
         k = int(np.flatnonzero(bad)[0])

@@ -7,6 +7,7 @@ from swarmgames.sim.controllers import (
     solver_from_config,
 )
 from swarmgames.sim.loop import StageLog, oscillation, run_stages
+from swarmgames.sim.providers import provider_from_config
 from swarmgames.sim.result import RunResult
 from swarmgames.sim.runner import build_mission, run
 
@@ -18,6 +19,7 @@ __all__ = [
     "build_mission",
     "make_controller",
     "oscillation",
+    "provider_from_config",
     "run",
     "run_stages",
     "solver_from_config",

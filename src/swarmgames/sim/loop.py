@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 from scipy.sparse import csgraph, csr_array
 
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["StageLog", "oscillation", "run_stages", "swarm_graph_stats"]
 
@@ -56,7 +56,7 @@ def swarm_graph_stats(snapshot: TopologySnapshot) -> tuple[float, int, int, np.n
     mode (h <= 2) holds no route longer than 2 hops, yet the swarm may be 6 hops across.
     Larger swarms use the table entries, which may stop at h hops.
     """
-    n = snapshot.n_nodes
+    n = snapshot.n_robots
     one = snapshot.hops == 1
     a, b = snapshot.owner[one], snapshot.dest[one]
     lo, hi = np.minimum(a, b), np.maximum(a, b)

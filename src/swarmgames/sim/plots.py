@@ -57,8 +57,12 @@ def plot_timeseries(result) -> Figure:
         ax.set_visible(False)
     grp = me.groupby("t")
     reg = axs[1, 0]
-    reg.plot(grp["local_regret"].median().index, grp["local_regret"].median(), label="local, median")
-    reg.plot(grp["local_regret"].max().index, grp["local_regret"].max(), label="local, max", alpha=0.6)
+    reg.plot(
+        grp["local_regret"].median().index, grp["local_regret"].median(), label="local, median"
+    )
+    reg.plot(
+        grp["local_regret"].max().index, grp["local_regret"].max(), label="local, max", alpha=0.6
+    )
     reg.plot(
         grp["global_regret"].median().index, grp["global_regret"].median(), label="global, median"
     )
@@ -109,4 +113,3 @@ def plot_paths(result) -> Figure:
     ax.legend(loc="upper right", fontsize="small")
     ax.set_title("paths and final 1-hop links")
     return fig
-

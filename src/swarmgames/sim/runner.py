@@ -107,9 +107,9 @@ def run(
     sw, sim = config.swarm, config.sim
     states = _initial_states(mission, sw.n_robots, rng_start)
     if provider is None:
-        from swarmgames.network.factory import make_provider
+        from swarmgames.sim.providers import provider_from_config
 
-        provider = make_provider(config.network, sw.n_robots, rng_net)
+        provider = provider_from_config(config.network, sw.n_robots, rng_net)
     controller = make_controller(config, mission)
     n_stages = max(1, int(np.floor(sim.duration_s / sim.control_period_s + 1e-9)))
     label = f"{config.name}: {sw.n_robots} robots, {config.network.backend}"

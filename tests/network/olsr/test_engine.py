@@ -6,9 +6,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.sparse import csgraph
 
-from swarmgames.config import OlsrConfig
 from swarmgames.network.links import link_graph
 from swarmgames.network.olsr.provider import OlsrProvider
+from swarmgames.network.parameters import OlsrParameters
 
 NEAR = np.array([[0.0, 0, 0], [100.0, 0, 0]])
 FAR = np.array([[0.0, 0, 0], [500.0, 0, 0]])
@@ -117,7 +117,7 @@ def test_no_tc_without_mpr_selectors():
 
 
 def test_willingness_never_blocks_multi_hop_routes():
-    cfg = OlsrConfig(willingness=0)
+    cfg = OlsrParameters(willingness=0)
     pos = np.c_[np.arange(4) * 300.0, np.zeros(4), np.zeros(4)]
     p = OlsrProvider(4, olsr=cfg, seed=0)
     p.reset(pos)
@@ -179,7 +179,7 @@ def test_degenerate_swarms():
 
 
 def test_bad_arguments():
-    with pytest.raises(ValueError, match="n_nodes must be >= 1"):
+    with pytest.raises(ValueError, match="n_robots must be >= 1"):
         OlsrProvider(0)
     p = OlsrProvider(2)
     with pytest.raises(RuntimeError, match="call reset"):
@@ -195,7 +195,7 @@ def test_bad_arguments():
     with pytest.raises(TypeError, match="seed must be"):
         OlsrProvider(2, seed="x")
     with pytest.raises(ValueError, match=r"max_jitter_s must be < hello_interval_s \(got 2.0"):
-        OlsrProvider(2, olsr=OlsrConfig(max_jitter_s=2.0))
+        OlsrProvider(2, olsr=OlsrParameters(max_jitter_s=2.0))
 
 
 def test_sparse_and_dense_state_agree(monkeypatch):

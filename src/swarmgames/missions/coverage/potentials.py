@@ -14,7 +14,8 @@ action :math:`x_k`:
 The unary term is the expected best signal that the neighbourhood gives the ROI when ``k`` takes
 action :math:`x_k` and the other variables stay at their (reported or virtual) states; the
 pairwise term is the link quality between two neighbours after both moved. The integral is the
-midpoint sum of :class:`~swarmgames.missions.coverage.roi.GaussianROI` (weights :math:`p(r_g) a^2`, not
+midpoint sum of :class:`~swarmgames.missions.coverage.roi.GaussianROI` (weights
+:math:`p(r_g) a^2`, not
 normalised: the unary is :math:`\\approx c\\,\\times` the mean signal in dBm). Signals are in
 dBm and therefore negative at the distances of interest; the solver is invariant to a constant
 shift of a variable's payoffs, so the sign does not matter to the game.
@@ -129,7 +130,8 @@ class CoveragePotentials:
     signal_floor_dbm : float or None, default None
         Signals below this level count as the level in eq. 4, and each variable's unary is
         integrated only over the cells its actions can change, relative to what the other
-        variables give there (:mod:`swarmgames.missions.coverage.window`): the unary then differs from
+        variables give there (:mod:`swarmgames.missions.coverage.window`): the unary then
+        differs from
         eq. 4 by a term free of the variable's action, which changes no marginal and no
         deviation gain. None: the whole ROI (the paper's eq. 4 exactly).
 

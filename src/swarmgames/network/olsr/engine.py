@@ -46,12 +46,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmgames.config import OlsrConfig
 from swarmgames.network.links import LinkGraph
 from swarmgames.network.olsr import tables
 from swarmgames.network.olsr.mpr import select_mprs
 from swarmgames.network.olsr.routing import compute_routes
 from swarmgames.network.olsr.tables import KeyedTable, KeySet, first_per_key, sorted_contains
+from swarmgames.network.parameters import OlsrParameters
 
 __all__ = ["OlsrEngine"]
 
@@ -70,13 +70,13 @@ def _csr_gather(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.nd
 
 
 class OlsrEngine:
-    """Mutable OLSR state of ``n_nodes`` nodes and its event loop.
+    """Mutable OLSR state of ``n_robots`` robots (OLSR nodes) and its event loop.
 
     Parameters
     ----------
-    n_nodes : int
+    n_robots : int
         Number of nodes.
-    olsr : OlsrConfig
+    olsr : OlsrParameters
         Intervals, jitter, hold times, willingness.
     rng : numpy Generator
         Source of the message jitter.
@@ -88,13 +88,13 @@ class OlsrEngine:
 
     def __init__(
         self,
-        n_nodes: int,
-        olsr: OlsrConfig,
+        n_robots: int,
+        olsr: OlsrParameters,
         rng: np.random.Generator,
         hello_only: bool = False,
         start_time: float = 0.0,
     ) -> None:
-        self.n = int(n_nodes)
+        self.n = int(n_robots)
         self.cfg = olsr
         self.rng = rng
         self.hello_only = hello_only

@@ -32,7 +32,7 @@ WILL_ALWAYS = 7
 
 
 def select_mprs(
-    n_nodes: int,
+    n_robots: int,
     sym_owner: np.ndarray,
     sym_neigh: np.ndarray,
     sym_order: np.ndarray,
@@ -46,7 +46,7 @@ def select_mprs(
 
     Parameters
     ----------
-    n_nodes : int
+    n_robots : int
         Number of nodes N.
     sym_owner, sym_neigh : ndarray of int, shape (S,)
         Symmetric 1-hop neighbour pairs ``(r, j)``, unique.
@@ -74,7 +74,7 @@ def select_mprs(
     ...             np.array([0, 2]), np.array([1, 1]), np.array([2, 0])).tolist()
     [1, 7]
     """
-    n = np.int64(n_nodes)
+    n = np.int64(n_robots)
     sym_keys = sym_owner.astype(np.int64) * n + sym_neigh
     will = (
         np.full(sym_keys.size, willingness, dtype=np.int64)

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from swarmgames.config import OlsrConfig, RadioConfig
 from swarmgames.network.links import link_graph
 from swarmgames.network.olsr.engine import OlsrEngine
+from swarmgames.network.parameters import OlsrParameters, RadioParameters
 from swarmgames.network.propagation import channel_model
-from swarmgames.network.topology import TopologySnapshot
-from swarmgames.network.validation import as_generator, check_positions, check_time
+from swarmgames.network.validation import check_positions, check_time
+from swarmgames.rng import as_generator
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["OlsrProvider"]
 
@@ -19,11 +20,11 @@ class OlsrProvider:
 
     Parameters
     ----------
-    n_nodes : int
+    n_robots : int
         Number of robots.
-    radio : RadioConfig, optional
+    radio : RadioParameters, optional
         Propagation and reception (default: ns-3 defaults, range 368.84 m).
-    olsr : OlsrConfig, optional
+    olsr : OlsrParameters, optional
         OLSR timing (default: ns-3 defaults).
     hello_only : bool, default False
         Send no TC messages: routing tables then hold at most 2 hops, which is all N_i(h) needs
@@ -38,7 +39,7 @@ class OlsrProvider:
     Raises
     ------
     ValueError
-        If ``n_nodes < 1`` or ``olsr.max_jitter_s >= olsr.hello_interval_s``.
+        If ``n_robots < 1`` or ``olsr.max_jitter_s >= olsr.hello_interval_s``.
 
     Examples
     --------
@@ -53,17 +54,17 @@ class OlsrProvider:
 
     def __init__(
         self,
-        n_nodes: int,
-        radio: RadioConfig | None = None,
-        olsr: OlsrConfig | None = None,
+        n_robots: int,
+        radio: RadioParameters | None = None,
+        olsr: OlsrParameters | None = None,
         hello_only: bool = False,
         seed: int | np.random.Generator | None = None,
         shadowing_key: int | None = None,
     ) -> None:
-        if int(n_nodes) < 1:
-            raise ValueError(f"n_nodes must be >= 1 (got {n_nodes})")
-        self.n_nodes = int(n_nodes)
-        self.olsr = olsr or OlsrConfig()
+        if int(n_robots) < 1:
+            raise ValueError(f"n_robots must be >= 1 (got {n_robots})")
+        self.n_robots = int(n_robots)
+        self.olsr = olsr or OlsrParameters()
         if self.olsr.max_jitter_s >= self.olsr.hello_interval_s:
             # Each HELLO round must be on the air before the next is built (ns-3: jitter is a
             # quarter of the HELLO interval).
@@ -73,7 +74,7 @@ class OlsrProvider:
             )
         self.hello_only = bool(hello_only)
         self._rng = as_generator(seed)
-        self.model = channel_model(radio or RadioConfig(), self._rng, shadowing_key)
+        self.model = channel_model(radio or RadioParameters(), self._rng, shadowing_key)
         self._engine: OlsrEngine | None = None
         self._time = 0.0
 
@@ -91,9 +92,9 @@ class OlsrProvider:
 
     def reset(self, positions: np.ndarray, start_time: float = 0.0) -> TopologySnapshot:
         """Start every node's OLSR at ``start_time`` with empty tables."""
-        check_positions(positions, self.n_nodes)
+        check_positions(positions, self.n_robots)
         self._engine = OlsrEngine(
-            self.n_nodes, self.olsr, self._rng, self.hello_only, float(start_time)
+            self.n_robots, self.olsr, self._rng, self.hello_only, float(start_time)
         )
         self._time = float(start_time)
         return self.snapshot()
@@ -105,7 +106,7 @@ class OlsrProvider:
 
     def step(self, to_time: float, positions: np.ndarray) -> None:
         """Like :meth:`advance` but without building a snapshot (cheaper between samples)."""
-        pos = check_positions(positions, self.n_nodes)
+        pos = check_positions(positions, self.n_robots)
         t = check_time(to_time, self._time)
         graph = link_graph(pos, self.model, self._rng)
         self.engine.run_until(t, graph)
@@ -114,4 +115,4 @@ class OlsrProvider:
     def snapshot(self) -> TopologySnapshot:
         """Every robot's routing table now."""
         owner, dest, hops, nxt = self.engine.routes(self._time)
-        return TopologySnapshot(self._time, self.n_nodes, owner, dest, hops, nxt)
+        return TopologySnapshot(self._time, self.n_robots, owner, dest, hops, nxt)

@@ -34,7 +34,7 @@ def _first_per_key(keys: np.ndarray, *cols: np.ndarray) -> tuple[np.ndarray, ...
 
 
 def compute_routes(
-    n_nodes: int,
+    n_robots: int,
     sym_owner: np.ndarray,
     sym_neigh: np.ndarray,
     th_owner: np.ndarray,
@@ -47,7 +47,7 @@ def compute_routes(
 
     Parameters
     ----------
-    n_nodes : int
+    n_robots : int
         Number of nodes N.
     sym_owner, sym_neigh : ndarray of int
         Valid symmetric links ``(r, j)``.
@@ -64,7 +64,7 @@ def compute_routes(
     owner, dest, hops, next_hop : ndarray
         Routes sorted by ``(owner, dest)``.
     """
-    n = np.int64(n_nodes)
+    n = np.int64(n_robots)
     sym_owner = sym_owner.astype(np.int64)
     k1 = sym_owner * n + sym_neigh
     k1, nh1 = _first_per_key(k1, np.asarray(sym_neigh, dtype=np.int64))
@@ -99,8 +99,8 @@ class TupleTopology:
     """Topology tuples given as flat arrays ``(owner, dest, last)``: ``owner`` knows that
     ``dest`` is one hop from ``last``."""
 
-    def __init__(self, n_nodes: int, owner: np.ndarray, dest: np.ndarray, last: np.ndarray):
-        n = np.int64(n_nodes)
+    def __init__(self, n_robots: int, owner: np.ndarray, dest: np.ndarray, last: np.ndarray):
+        n = np.int64(n_robots)
         valid = dest != owner
         kl = (owner.astype(np.int64) * n + last)[valid]
         order = np.argsort(kl, kind="stable")

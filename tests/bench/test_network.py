@@ -13,9 +13,9 @@ from swarmgames.network.links import link_graph
 
 def test_bench_records_are_plain_dicts():
     rec = bench_olsr_advance(20, sim_seconds=6.0, seed=1)
-    assert rec["benchmark"] == "olsr_advance" and rec["n_nodes"] == 20
+    assert rec["benchmark"] == "olsr_advance" and rec["n_robots"] == 20
     assert rec["wall_s"] >= 0 and rec["routes"] > 0
-    assert set(bench_oracle(20)) == {"benchmark", "n_nodes", "routes", "wall_s"}
+    assert set(bench_oracle(20)) == {"benchmark", "n_robots", "routes", "wall_s"}
     hello = bench_olsr_advance(20, sim_seconds=6.0, hello_only=True, seed=1)
     assert hello["hello_only"] is True
     rep = bench_replay(10, sim_seconds=3.0, backend="oracle")

@@ -19,10 +19,10 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from swarmgames.config import NetworkConfig
-from swarmgames.network.factory import make_provider
 from swarmgames.network.provider import NeighbourhoodProvider
-from swarmgames.network.topology import TopologySnapshot
 from swarmgames.network.trace import PositionTrace, read_positions
+from swarmgames.sim.providers import provider_from_config
+from swarmgames.topology import TopologySnapshot
 
 __all__ = ["ReplayResult", "replay", "summarise"]
 
@@ -33,12 +33,12 @@ def summarise(snap: TopologySnapshot) -> dict:
     one = snap.hops == 1
     adj = sp.csr_array(
         (np.ones(int(one.sum()), dtype=bool), (snap.owner[one], snap.dest[one])),
-        shape=(snap.n_nodes, snap.n_nodes),
+        shape=(snap.n_robots, snap.n_robots),
     )
     n_comp = csgraph.connected_components(adj, directed=True, connection="weak")[0]
     return {
         "t": snap.time,
-        "mean_degree": float(one.sum()) / snap.n_nodes,
+        "mean_degree": float(one.sum()) / snap.n_robots,
         "mean_hops": float(snap.hops.mean()) if snap.n_entries else float("nan"),
         "max_hops": int(snap.hops.max()) if snap.n_entries else 0,
         "components": int(n_comp),
@@ -170,7 +170,7 @@ def replay(
         raise ValueError(f"end must be >= the trace start {trace.start} (got {end})")
     if isinstance(provider, str):
         cfg = (config or NetworkConfig()).model_copy(update={"backend": provider})
-        provider = make_provider(cfg, trace.n_nodes, seed, full_tables=True)
+        provider = provider_from_config(cfg, trace.n_robots, seed, full_tables=True)
     samples = _sample_times(trace.start, stop, float(sample_every))
     changes = trace.times[(trace.times > trace.start) & (trace.times <= stop)]
     breaks = np.union1d(samples, changes)

@@ -40,12 +40,13 @@ import pandas as pd
 
 from swarmgames.config import NetworkConfig
 from swarmgames.errors import ConfigError
-from swarmgames.network.factory import BACKENDS, make_provider
+from swarmgames.experiments.replay import replay
+from swarmgames.network.factory import BACKENDS
 from swarmgames.network.propagation import new_shadowing_key
 from swarmgames.network.provider import NeighbourhoodProvider
-from swarmgames.network.replay import replay
 from swarmgames.network.trace import PositionTrace, read_positions
-from swarmgames.network.validation import as_generator
+from swarmgames.rng import as_generator
+from swarmgames.sim.providers import provider_from_config
 
 __all__ = ["CompareResult", "compare"]
 
@@ -65,7 +66,7 @@ class CompareResult:
     ----------
     backends : tuple of str
         Labels of the backends, reference first (repeated names get ``#2``, ``#3``...).
-    n_nodes : int
+    n_robots : int
         Number of robots.
     sample_times : ndarray, shape (S,)
         Sample times, seconds.
@@ -87,7 +88,7 @@ class CompareResult:
     """
 
     backends: tuple[str, ...]
-    n_nodes: int
+    n_robots: int
     sample_times: np.ndarray
     start_time: float
     warmup_s: float
@@ -121,7 +122,7 @@ class CompareResult:
         return {
             "reference": self.reference,
             "backends": list(self.backends),
-            "n_nodes": self.n_nodes,
+            "n_robots": self.n_robots,
             "n_samples": int(self.sample_times.size),
             "sample_every_s": float(np.diff(self.sample_times[:2])[0])
             if self.sample_times.size > 1
@@ -243,7 +244,7 @@ def compare(
         Positions trace (``t, node, x, y, z``; a row holds from ``t`` until the node's next row).
     backends : sequence of str or NeighbourhoodProvider
         At least two; names (``olsr``, ``oracle``, ``disk``, ``knn``, ``ns3``) are built from
-        ``config`` by :func:`~swarmgames.network.factory.make_provider`. The
+        ``config`` by :func:`~swarmgames.sim.providers.provider_from_config`. The
         first is the reference the others are compared with. Backends run one after the other,
         so two ns-3 providers (two seeds) can be compared in one process.
     sample_every : float, default 0.5
@@ -310,8 +311,8 @@ def compare(
             cfg = (config or NetworkConfig()).model_copy(update={"backend": backend})
             child = np.random.default_rng(rng.integers(2**63))
             # OLSR with TCs, as replay builds it, so that routes of any length are compared.
-            backend = make_provider(
-                cfg, trace.n_nodes, child, full_tables=True, shadowing_key=channel
+            backend = provider_from_config(
+                cfg, trace.n_robots, child, full_tables=True, shadowing_key=channel
             )
         start = _time.perf_counter()
         result = replay(trace, backend, sample_every)
@@ -321,7 +322,7 @@ def compare(
 
     t0 = float(trace.times[0])
     per_rows, conf_rows = [], []
-    n = trace.n_nodes
+    n = trace.n_robots
     for label in labels[1:]:
         per, t, a, b = _pair(hops[labels[0]], hops[label], samples, n)
         per.insert(0, "backend", label)

@@ -13,10 +13,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from swarmgames.errors import ConfigError, InputDataError, RunFolderError
-from swarmgames.network.compare import compare
+from swarmgames.experiments.compare import compare
 from swarmgames.network.oracle import OracleProvider
 from swarmgames.network.recorded import RecordedProvider, read_recording
-from swarmgames.network.topology import TopologySnapshot
+from swarmgames.topology import TopologySnapshot
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data", "ns3")
 
@@ -81,8 +81,8 @@ def test_within_two_hops_ignores_far_disagreements():
 
 def test_confusion_accounts_for_every_ordered_pair():
     rec = read_recording(os.path.join(DATA, "hex_expand"))
-    result = compare(rec.positions, [rec.provider("ns3"), OracleProvider(rec.n_nodes)], 0.5)
-    n = rec.n_nodes
+    result = compare(rec.positions, [rec.provider("ns3"), OracleProvider(rec.n_robots)], 0.5)
+    n = rec.n_robots
     assert result.confusion["count"].sum() == result.sample_times.size * n * (n - 1)
 
 
@@ -133,7 +133,7 @@ def test_recorded_ns3_equals_bfs_on_static_layouts_after_30s(name):
     rec = read_recording(os.path.join(DATA, name))
     result = compare(
         rec.positions,
-        [rec.provider("ns3"), OracleProvider(rec.n_nodes)],
+        [rec.provider("ns3"), OracleProvider(rec.n_robots)],
         rec.sample_every,
         warmup_s=30,
     )
@@ -148,14 +148,14 @@ def test_instant_bfs_lags_recorded_ns3_on_moving_traces(name):
     # samples) and 89 % (hex_expand) agreement with the recorded ns-3 runs.
     rec = read_recording(os.path.join(DATA, name))
     result = compare(
-        rec.positions, [rec.provider("ns3"), OracleProvider(rec.n_nodes)], rec.sample_every
+        rec.positions, [rec.provider("ns3"), OracleProvider(rec.n_robots)], rec.sample_every
     )
     assert 0.6 < result.agreement() < 0.95
 
 
 def test_recorded_provider_serves_last_sample_at_or_before_t():
     hops = pd.DataFrame({"t": [1.0, 1.0, 3.0], "node": [0, 1, 0], "dest": [1, 0, 1], "hops": 1})
-    rec = RecordedProvider(hops, n_nodes=2, sample_every=1.0)
+    rec = RecordedProvider(hops, n_robots=2, sample_every=1.0)
     rec.reset(np.zeros((2, 3)))
     assert rec.advance(0.5, None).n_entries == 0
     assert rec.advance(1.7, None).n_entries == 2
@@ -168,7 +168,7 @@ def test_recorded_provider_serves_last_sample_at_or_before_t():
 def test_recorded_provider_rejects_bad_rows():
     hops = pd.DataFrame({"t": [1.0], "node": [0], "dest": [5], "hops": [1]})
     with pytest.raises(InputDataError, match="hops row 2"):
-        RecordedProvider(hops, n_nodes=2, sample_every=1.0)
+        RecordedProvider(hops, n_robots=2, sample_every=1.0)
 
 
 def test_read_recording_needs_all_files(tmp_path):
@@ -198,7 +198,7 @@ def test_unknown_backend_name_suggests_close_match():
 
 def test_write_puts_tables_plot_and_summary_in_run_folder(tmp_path):
     rec = read_recording(os.path.join(DATA, "hex_expand"))
-    result = compare(rec.positions, [rec.provider("ns3"), OracleProvider(rec.n_nodes)], 0.5)
+    result = compare(rec.positions, [rec.provider("ns3"), OracleProvider(rec.n_robots)], 0.5)
     files = result.write(tmp_path / "cmp")
     names = {f.name for f in files}
     assert names == {

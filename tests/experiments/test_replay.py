@@ -8,8 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from swarmgames.experiments.replay import replay
 from swarmgames.network.baselines import DiskProvider
-from swarmgames.network.replay import replay
 from swarmgames.network.trace import PositionTrace
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "ns3" / "hex_expand"

@@ -31,14 +31,14 @@ def _frozen(a: np.ndarray, dtype) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class TopologySnapshot:
-    """Routing-table view of a swarm of ``n_nodes`` robots at time ``time``.
+    """Routing-table view of a swarm of ``n_robots`` robots at time ``time``.
 
     Parameters
     ----------
     time : float
         Simulated time of the snapshot, in seconds.
-    n_nodes : int
-        Number of robots, indexed ``0 .. n_nodes - 1``.
+    n_robots : int
+        Number of robots, indexed ``0 .. n_robots - 1``.
     owner : ndarray of int32, shape (E,)
         Robot whose routing table holds the entry.
     dest : ndarray of int32, shape (E,)
@@ -55,7 +55,7 @@ class TopologySnapshot:
     """
 
     time: float
-    n_nodes: int
+    n_robots: int
     owner: np.ndarray
     dest: np.ndarray
     hops: np.ndarray
@@ -99,7 +99,7 @@ class TopologySnapshot:
     def hop_matrix(self, unreachable: int = -1) -> np.ndarray:
         """Dense ``(N, N)`` int16 matrix of hop counts; 0 on the diagonal, ``unreachable``
         where robot i has no route to j."""
-        m = np.full((self.n_nodes, self.n_nodes), unreachable, dtype=np.int16)
+        m = np.full((self.n_robots, self.n_robots), unreachable, dtype=np.int16)
         m[self.owner, self.dest] = self.hops
         np.fill_diagonal(m, 0)
         return m
@@ -112,10 +112,10 @@ class TopologySnapshot:
         if h < 1:
             raise ValueError(f"h must be >= 1 (got {h})")
         keep = self.hops <= h
-        rows = np.concatenate([self.owner[keep], np.arange(self.n_nodes, dtype=np.int32)])
-        cols = np.concatenate([self.dest[keep], np.arange(self.n_nodes, dtype=np.int32)])
+        rows = np.concatenate([self.owner[keep], np.arange(self.n_robots, dtype=np.int32)])
+        cols = np.concatenate([self.dest[keep], np.arange(self.n_robots, dtype=np.int32)])
         data = np.ones(rows.size, dtype=bool)
-        return sp.csr_array((data, (rows, cols)), shape=(self.n_nodes, self.n_nodes))
+        return sp.csr_array((data, (rows, cols)), shape=(self.n_robots, self.n_robots))
 
     def neighbourhood(self, i: int, h: int) -> np.ndarray:
         """Sorted indices of ``N_i(h)``, ``i`` included."""
@@ -125,7 +125,7 @@ class TopologySnapshot:
 
     def degree(self) -> np.ndarray:
         """Number of 1-hop (direct) neighbours of every robot, shape (N,)."""
-        return np.bincount(self.owner[self.hops == 1], minlength=self.n_nodes)
+        return np.bincount(self.owner[self.hops == 1], minlength=self.n_robots)
 
     def to_networkx(self, h: int = 1):
         """Directed networkx graph with an edge ``i -> j`` (attribute ``hops``) for every entry
@@ -133,7 +133,7 @@ class TopologySnapshot:
         import networkx as nx
 
         g = nx.DiGraph(time=self.time)
-        g.add_nodes_from(range(self.n_nodes))
+        g.add_nodes_from(range(self.n_robots))
         keep = self.hops <= h
         g.add_edges_from(
             (int(a), int(b), {"hops": int(c)})
