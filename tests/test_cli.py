@@ -101,7 +101,7 @@ def test_errors_map_to_documented_exit_codes(runner, error, code):
 
 # ----------------------------------------------------------------------------- end to end
 
-HEX = "tests/data/ns3/hex_expand/positions.csv"  # recorded ns-3 trace (REFERENCE.md section 4)
+HEX = "tests/data/ns3/hex_expand/positions.csv"  # recorded ns-3 trace (docs/reference.md section 4)
 
 
 def test_run_writes_folder_and_refuses_to_overwrite(runner, tmp_path):

@@ -26,7 +26,7 @@ def test_defaults_follow_the_paper_and_ns3():
     cfg = ScenarioConfig()
     # Paper section III: h = 2, alpha_a = 1, alpha_b = 0.001.
     assert (cfg.network.hops, cfg.game.alpha_a, cfg.game.alpha_b) == (2, 1.0, 0.001)
-    # REFERENCE.md section 2: ns-3 WifiPhy 16.0206 dBm, Friis at 5.15 GHz, -82 dBm gate.
+    # docs/reference.md section 2: ns-3 WifiPhy 16.0206 dBm, Friis at 5.15 GHz, -82 dBm gate.
     assert cfg.network.radio.tx_power_dbm == 16.0206
     assert cfg.network.radio.frequency_hz == 5.15e9
     assert cfg.network.radio.rx_threshold_dbm == -82.0

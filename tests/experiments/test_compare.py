@@ -129,7 +129,7 @@ def test_a_backend_agrees_with_itself():
 
 @pytest.mark.parametrize("name", ["static_7", "static_20", "static_50"])
 def test_recorded_ns3_equals_bfs_on_static_layouts_after_30s(name):
-    # REFERENCE.md section 4: settled ns-3 routes equal BFS on the 368.84 m disk graph
+    # docs/reference.md section 4: settled ns-3 routes equal BFS on the 368.84 m disk graph
     rec = read_recording(os.path.join(DATA, name))
     result = compare(
         rec.positions,
@@ -143,7 +143,7 @@ def test_recorded_ns3_equals_bfs_on_static_layouts_after_30s(name):
 
 @pytest.mark.parametrize("name", ["waypoint_20", "hex_expand"])
 def test_instant_bfs_lags_recorded_ns3_on_moving_traces(name):
-    # ns-3's tables lag the geometry by 2-6 s (REFERENCE.md section 4), so instantaneous BFS
+    # ns-3's tables lag the geometry by 2-6 s (docs/reference.md section 4), so instantaneous BFS
     # disagrees with them on a sizeable share of entries: measured 81 % (waypoint_20, 1 s
     # samples) and 89 % (hex_expand) agreement with the recorded ns-3 runs.
     rec = read_recording(os.path.join(DATA, name))
@@ -232,7 +232,7 @@ def test_olsr_equals_recorded_ns3_on_static_layouts_after_30s(name):
 @pytest.mark.parametrize("name", ["waypoint_20", "hex_expand"])
 def test_olsr_tracks_recorded_ns3_on_moving_traces_like_ns3_tracks_itself(name):
     # Target: ns-3's own run-to-run agreement, about 97 % overall and 99 % within 2 hops
-    # (REFERENCE.md section 4 / issue 3). Measured here: waypoint_20 99.4 % / 99.98 %,
+    # (docs/reference.md section 4 / issue 3). Measured here: waypoint_20 99.4 % / 99.98 %,
     # hex_expand 99.2 % (seed 1); ns-3 against itself (runs 1 and 2) gives 99.0 % / 99.9 %.
     rec = read_recording(os.path.join(DATA, name))
     result = compare(rec.positions, [rec.provider("ns3"), "olsr"], rec.sample_every, seed=1)

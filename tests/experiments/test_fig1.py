@@ -1,4 +1,4 @@
-"""The paper's Figure 1 against the ns-3 3.44 values of REFERENCE.md section 4."""
+"""The paper's Figure 1 against the ns-3 3.44 values of docs/reference.md section 4."""
 
 import numpy as np
 import pandas as pd
@@ -6,7 +6,7 @@ import pytest
 
 from swarmgames.experiments.fig1 import break_points, fig1_positions, reproduce_fig1
 
-# REFERENCE.md section 4 (ns-3, tables read at 30 s): spacing -> (direct neighbours, hops).
+# docs/reference.md section 4 (ns-3, tables read at 30 s): spacing -> (direct neighbours, hops).
 NS3_LINE = {
     50: (6.000, 1.000),
     100: (4.286, 1.286),
@@ -110,7 +110,7 @@ def test_bad_arguments(kwargs, match):
 
 
 def test_default_sweep_finds_every_ns3_break_point():
-    # REFERENCE.md section 4: line 184/185 and 368/369 m; hexagon 184/185, 212/213, 368/369 m.
+    # docs/reference.md section 4: line 184/185 and 368/369 m; hexagon 184/185, 212/213, 368/369 m.
     # The line also steps where the 3rd..6th neighbours along it drop out (R/3 ... R/6).
     steps = reproduce_fig1(seed=1).steps()
     assert steps["hexagon"] == [(184.0, 185.0), (212.0, 213.0), (368.0, 369.0)]

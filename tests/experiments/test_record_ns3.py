@@ -22,7 +22,7 @@ DATA = os.path.join(os.path.dirname(__file__), "..", "data", "ns3")
 
 
 def test_hexagon_trace_equals_the_recorded_ns3_run():
-    # tests/data/ns3/hex_expand (REFERENCE.md section 4): ring radius 100 m -> 500 m -> 100 m
+    # tests/data/ns3/hex_expand (docs/reference.md section 4): ring radius 100 m -> 500 m -> 100 m
     committed = pd.read_csv(os.path.join(DATA, "hex_expand", "positions.csv"))
     pd.testing.assert_frame_equal(hex_expand(180.0, 0.1), committed, check_dtype=False)
 

@@ -1,6 +1,6 @@
 """Trace replay, and agreement with the recorded ns-3 run ``tests/data/ns3/hex_expand``
 (7-node hexagon expanding 100 -> 500 m and back over 180 s; ns-3 3.44, Friis, 802.11a,
-6 Mbit/s; REFERENCE.md section 4)."""
+6 Mbit/s; docs/reference.md section 4)."""
 
 from pathlib import Path
 
@@ -29,7 +29,7 @@ def ns3_hops():
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_olsr_matches_ns3_recording_at_its_own_run_to_run_level(seed, ns3_hops):
-    # Issue / REFERENCE.md section 4: ns-3 agrees with itself across seeds on ~97 % of
+    # Issue / docs/reference.md section 4: ns-3 agrees with itself across seeds on ~97 % of
     # entries; instantaneous BFS reaches ~85 % on this trace.
     res = replay(DATA / "positions.csv", "olsr", seed=seed)
     assert agreement(res.hops, ns3_hops) >= 0.97

@@ -60,7 +60,7 @@ def trimmed_game(batch: LocalGameBatch, pot: TablePotentials, g: int):
 
 
 def disk_snapshot(positions: np.ndarray, radius: float, time: float = 0.0) -> TopologySnapshot:
-    """Snapshot with BFS hop counts on the disk graph of ``radius`` (REFERENCE.md section 4:
+    """Snapshot with BFS hop counts on the disk graph of ``radius`` (docs/reference.md section 4:
     settled OLSR hop counts equal BFS hop counts on the disk graph)."""
     pos = np.asarray(positions, dtype=float)
     d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=-1)

@@ -104,7 +104,7 @@ def test_co_located_robots_are_handled():
 
 
 def test_asymmetric_routing_tables_use_each_robot_own_view():
-    # OLSR lag can leave j in i's table but not i in j's (REFERENCE.md section 4).
+    # OLSR lag can leave j in i's table but not i in j's (docs/reference.md section 4).
     hops = np.array([[0, 1, 0], [0, 0, 1], [0, 1, 0]])  # 0 sees 1; 1 sees 2 only
     snap = TopologySnapshot.from_hop_matrix(0.0, hops)
     batch = local_games(snap, 1, np.zeros((3, 2)), DisplacementActions.headings(1.0, 4))

@@ -21,7 +21,7 @@ def _solve(batch, pot, engine="blas", beta=3.0, delta=1e-9, max_iter=300, alpha_
 
 def test_two_variable_update_matches_hand_computation():
     # Algorithm 1 line 5 (init from the unary term) then one coordinate update of X_0 given
-    # Q_1, with the payoff-maximising sign Q(x) ∝ exp(+β E[M | x]) (REFERENCE.md section 1).
+    # Q_1, with the payoff-maximising sign Q(x) ∝ exp(+β E[M | x]) (docs/reference.md section 1).
     batch, pot = random_games(3, 1, 2, 2, ragged=False)
     u = pot.unary_table[0]
     p = pot.pairwise_table[0]

@@ -1,4 +1,4 @@
-"""Tests of the coverage potentials (paper eqs. 4 and 5) and the coverage metric."""
+"""Tests of the coverage potentials (paper eqs. 5 and 6) and the coverage metric."""
 
 import math
 from types import SimpleNamespace
@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from swarmgames.game.inertia import Inertia
 from swarmgames.missions import CoveragePotentials, GaussianROI, HeadingActions, SignalModel
 
-T0, L0, N_EXP = 16.0206, 46.6777, 3.0  # ns-3 log-distance defaults, REFERENCE.md section 2
+T0, L0, N_EXP = 16.0206, 46.6777, 3.0  # ns-3 log-distance defaults, docs/reference.md section 2
 
 
 def _psi(d):
@@ -50,7 +50,7 @@ def test_two_robots_against_hand_computation(small):
     for k, (me, other) in enumerate([(s0, s1), (s1, s0)]):
         for a in range(model.n_actions):
             nx = (me[0] + model.offsets[a, 0], me[1] + model.offsets[a, 1], me[2])
-            # eq. 4: sum over cells of p(r) a^2 * max(psi(own next state), psi(other's state))
+            # eq. 5: sum over cells of p(r) a^2 * max(psi(own next state), psi(other's state))
             hand = sum(
                 wg * max(_psi(d3(nx, r)), _psi(d3(other, r))) for r, wg in zip(pts, w, strict=True)
             )
@@ -59,7 +59,7 @@ def test_two_robots_against_hand_computation(small):
         for b in range(model.n_actions):
             n0 = np.add(s0, model.offsets[a])
             n1 = np.add(s1, model.offsets[b])
-            # eq. 5: link quality between the two next states, both at 30 m
+            # eq. 6: link quality between the two next states, both at 30 m
             hand = _psi(math.dist(n0, n1))
             assert p[0, 0, 1, a, b] == pytest.approx(hand, abs=1e-4)
             assert p[0, 1, 0, b, a] == pytest.approx(hand, abs=1e-4)
@@ -97,7 +97,7 @@ def test_colocated_robots_are_finite(small):
 
 
 def _reference_unary(pot, batch):
-    """Direct float64 evaluation of eq. 4, one variable and action at a time."""
+    """Direct float64 evaluation of eq. 5, one variable and action at a time."""
     B, K, A = batch.action_mask.shape
     out = np.zeros((B, K, A))
     pts, w = pot.roi.points, pot.roi.weights

@@ -51,7 +51,7 @@ def test_bad_parameters(kwargs, match):
 
 
 def test_acceleration_labels_of_the_authors_controller():
-    # REFERENCE.md section 5: 25 labels on a +-0.5 m/s^2 grid, step 0.25, over 1 s, |v| <= 1.
+    # docs/reference.md section 5: 25 labels on a +-0.5 m/s^2 grid, step 0.25, over 1 s, |v| <= 1.
     from swarmgames.missions import AccelerationActions
 
     m = AccelerationActions(0.25, 2, 1.0, 1.0)

@@ -18,7 +18,7 @@ def test_roi_area_grows_with_n(n):
     cfg = scaled_config(n, area_per_robot_m2=50_000.0)
     var = cfg.mission.roi_cov_m2[0][0]
     k2 = -2.0 * math.log1p(-cfg.mission.confidence)
-    # Area of the 95 % ellipse of N(0, var I) is pi k2 var (REFERENCE: chi2 with 2 dof).
+    # Area of the 95 % ellipse of N(0, var I) is pi k2 var (chi-square with 2 degrees of freedom).
     assert math.pi * k2 * var == pytest.approx(n * 50_000.0)
     assert cfg.swarm.n_robots == n
     assert math.pi * cfg.swarm.start_radius_m**2 == pytest.approx(n * 50_000.0)

@@ -7,7 +7,7 @@ from swarmgames.missions import SignalModel
 
 
 def test_reference_values():
-    # psi_R(d) = T0 - (L0 + 10 n log10 d); ns-3 log-distance defaults (REFERENCE.md section 2):
+    # psi_R(d) = T0 - (L0 + 10 n log10 d); ns-3 log-distance defaults (docs/reference.md section 2):
     # T0 = 16.0206 dBm, L0 = 46.6777 dB at 1 m, n = 3. At 10 m: 16.0206 - 46.6777 - 30.
     s = SignalModel(16.0206, 46.6777, 3.0, 1.0)
     assert s.power(10.0) == pytest.approx(-60.6571, abs=1e-9)

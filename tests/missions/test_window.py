@@ -12,7 +12,7 @@ from swarmgames.game import evaluate_payoffs, mean_field
 from swarmgames.missions import CoveragePotentials, GaussianROI, HeadingActions, SignalModel
 from swarmgames.missions.coverage.window import RoiRaster, floor_distance_sq, windowed_unary
 
-T0, L0, N_EXP = 16.0206, 46.6777, 3.0  # ns-3 log-distance defaults, REFERENCE.md section 2
+T0, L0, N_EXP = 16.0206, 46.6777, 3.0  # ns-3 log-distance defaults, docs/reference.md section 2
 ROI = GaussianROI((0.0, 0.0), ((250.0**2, 0.0), (0.0, 200.0**2)), 0.95, 20.0)
 SIGNAL = SignalModel(T0, L0, N_EXP, 1.0)
 MODEL = HeadingActions(10.0, 8)

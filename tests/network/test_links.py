@@ -26,7 +26,7 @@ def test_kdtree_graph_equals_all_pairs(pos):
 
 
 def test_hard_cut_at_368_84_m():
-    # REFERENCE.md section 2/4: linked at 368.5 m, gone at 369 m.
+    # docs/reference.md section 2/4: linked at 368.5 m, gone at 369 m.
     g = link_graph(np.array([[0.0, 0, 0], [368.5, 0, 0], [368.5 + 369.0, 0, 0]]))
     assert g.n_links == 1
     assert g.neighbours(1).tolist() == [0]

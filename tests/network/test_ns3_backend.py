@@ -129,7 +129,7 @@ def test_is_a_neighbourhood_provider(ns3):
 @pytest.mark.ns3
 @pytest.mark.parametrize(
     ("d", "degree", "hops"),
-    # REFERENCE.md section 4: 7 nodes in a line, tables read at 30 s (ns-3 3.44 measurement)
+    # docs/reference.md section 4: 7 nodes in a line, tables read at 30 s (ns-3 3.44 measurement)
     [(50, 6.000, 1.000), (100, 4.286, 1.286), (150, 3.143, 1.619), (185, 1.714, 2.667),
      (368, 1.714, 2.667)],
 )  # fmt: skip
@@ -142,7 +142,7 @@ def test_line_of_seven_matches_reference(ns3, d, degree, hops):
 @pytest.mark.ns3
 @pytest.mark.parametrize(
     ("d", "degree", "hops"),
-    # REFERENCE.md section 4: centre + ring of 6 at radius d, tables read at 30 s
+    # docs/reference.md section 4: centre + ring of 6 at radius d, tables read at 30 s
     [(150, 6.000, 1.000), (200, 5.143, 1.143), (300, 3.429, 1.429)],
 )
 def test_hexagon_matches_reference(ns3, d, degree, hops):
@@ -155,7 +155,7 @@ def test_hexagon_matches_reference(ns3, d, degree, hops):
 @pytest.mark.parametrize(
     ("radio", "linked", "cut"),
     [
-        # REFERENCE.md section 2/4: Friis 5.15 GHz, 16.0206 dBm, -82 dBm: linked at 368.5 m,
+        # docs/reference.md section 2/4: Friis 5.15 GHz, 16.0206 dBm, -82 dBm: linked at 368.5 m,
         # gone at 369 m
         ({}, 368.5, 369.0),
         # 6.0206 dB less power halves the Friis range: 368.84 / 2 = 184.42 m
@@ -240,7 +240,8 @@ def test_time_offset_and_bad_calls(ns3):
 @pytest.mark.ns3
 @pytest.mark.parametrize("name", ["static_7", "static_20", "static_50"])
 def test_static_layouts_equal_bfs_after_30s(ns3, name):
-    # REFERENCE.md section 4: after settling, ns-3 hop counts equal BFS on the 368.84 m disk graph
+    # docs/reference.md section 4: after settling, ns-3 hop counts equal BFS on the 368.84 m
+    # disk graph
     rec = read_recording(os.path.join(DATA, name))
     result = compare(rec.positions, [OracleProvider(rec.n_robots), ns3(seed=8)], 5.0, warmup_s=30.0)
     assert result.agreement() == 1.0
@@ -250,7 +251,7 @@ def test_static_layouts_equal_bfs_after_30s(ns3, name):
 def test_figure1_with_ns3_backend_matches_reference(ns3):
     from swarmgames.experiments.fig1 import reproduce_fig1
 
-    # REFERENCE.md section 4: line d=100 -> 4.286 / 1.286, d=185 -> 1.714 / 2.667, d=369 -> no
+    # docs/reference.md section 4: line d=100 -> 4.286 / 1.286, d=185 -> 1.714 / 2.667, d=369 -> no
     # links; hexagon d=200 -> 5.143 / 1.143
     frame = reproduce_fig1("ns3", spacings=[100.0, 185.0, 200.0, 369.0], seed=0).to_frame()
     got = frame.set_index(["layout", "spacing_m"])

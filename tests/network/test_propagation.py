@@ -1,5 +1,5 @@
 """Propagation models against ns-3's formulas and the ranges measured in ns-3
-(REFERENCE.md section 2)."""
+(docs/reference.md section 2)."""
 
 import warnings
 
@@ -20,20 +20,20 @@ SENSITIVITY_80211A_DBM = {6: -82, 9: -81, 12: -79, 18: -77, 24: -74, 36: -70, 48
 
 
 def test_friis_default_budget():
-    # REFERENCE.md section 2: Pr = 16.0206 - 46.684 - 20 log10(d) at 5.15 GHz.
+    # docs/reference.md section 2: Pr = 16.0206 - 46.684 - 20 log10(d) at 5.15 GHz.
     d = np.array([1.0, 10.0, 368.84])
     assert np.allclose(friis_rx_power(d), 16.0206 - 46.684 - 20 * np.log10(d), atol=1e-3)
 
 
 def test_default_range_is_368_84_m():
-    # REFERENCE.md section 2: ns-3 links at 368.5 m and not at 369 m; d_max = 368.84 m.
+    # docs/reference.md section 2: ns-3 links at 368.5 m and not at 369 m; d_max = 368.84 m.
     assert max_range(RadioParameters()) == pytest.approx(368.84, abs=0.01)
     assert friis_rx_power(368.5) >= -82.0
     assert friis_rx_power(369.0) < -82.0
 
 
 def test_range_formula_with_system_loss():
-    # REFERENCE.md section 2: d_max = (c/f)/(4 pi) 10^((Pt + 82 - 10 log10 L)/20).
+    # docs/reference.md section 2: d_max = (c/f)/(4 pi) 10^((Pt + 82 - 10 log10 L)/20).
     radio = RadioParameters(system_loss=2.0)
     expected = (299_792_458 / 5.15e9) / (4 * np.pi) * 10 ** ((16.0206 + 82 - 10 * np.log10(2)) / 20)
     assert max_range(radio) == pytest.approx(expected)
@@ -41,7 +41,7 @@ def test_range_formula_with_system_loss():
 
 @pytest.mark.parametrize("rate, sensitivity", sorted(SENSITIVITY_80211A_DBM.items()))
 def test_range_shrinks_with_rate_sensitivity(rate, sensitivity):
-    # 802.11a sensitivities per rate, REFERENCE.md section 2: higher rates need more power.
+    # 802.11a sensitivities per rate, docs/reference.md section 2: higher rates need more power.
     r = max_range(RadioParameters(rx_threshold_dbm=sensitivity))
     assert r <= max_range(RadioParameters()) + 1e-9
     assert friis_rx_power(r) == pytest.approx(sensitivity)

@@ -52,7 +52,7 @@ def test_ns3_backend_is_lazy_and_reports_absence():
 
 
 def test_oracle_equals_settled_olsr():
-    # REFERENCE.md section 4: settled OLSR == BFS; the oracle is that BFS.
+    # docs/reference.md section 4: settled OLSR == BFS; the oracle is that BFS.
     rng = np.random.default_rng(4)
     pos = np.c_[rng.uniform(0, 1500, (15, 2)), np.zeros(15)]
     o = OracleProvider(15).reset(pos)

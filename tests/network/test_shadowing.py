@@ -3,7 +3,7 @@
 Shadowing models slow, location-dependent obstruction: it must not change from one HELLO to the
 next while the robots hold still (fast variation is fading's job). The ns-3 backend sets it as a
 fixed per-pair loss (``MatrixPropagationLossModel``); the built-in providers draw the same field
-from the same key, so both backends run on one channel (REFERENCE.md section 2: log-normal
+from the same key, so both backends run on one channel (docs/reference.md section 2: log-normal
 shadowing, sigma ~ 5.7 dB in the authors' scripts).
 """
 

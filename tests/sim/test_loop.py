@@ -162,7 +162,7 @@ def test_colocated_start():
 
 
 def test_hop_stats_reach_beyond_hello_only_tables():
-    # 7 robots in a line 300 m apart (range 368.84 m, REFERENCE.md section 2): HELLO-only OLSR
+    # 7 robots in a line 300 m apart (range 368.84 m, docs/reference.md section 2): HELLO-only OLSR
     # tables hold at most 2 hops, but the swarm is 6 hops across; the paper's Fig. 1 averages
     # over every reachable pair: 2 * (6*1 + 5*2 + 4*3 + 3*4 + 2*5 + 1*6) / 42 = 8/3.
     from swarmgames.network.olsr.provider import OlsrProvider

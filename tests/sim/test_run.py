@@ -134,7 +134,7 @@ def test_two_robot_payoff_against_hand_computation():
     # Robot 0's local game with robot 1 as its only (non-virtual) neighbour, under the paper's
     # model exactly (no smooth max, no move cost, no crowding penalty). For the profile the
     # solver settles on, M_0 = phi_u(0, x0) + phi_u(1, x1) + 0.001 * 2 * psi(d): eq. 1 with
-    # eqs. 4-5 (paper section III), every term computed here by hand.
+    # eqs. 5-6 (paper section III), every term computed here by hand.
     paper = {"softness_db": 0.0, "move_cost_db": 0.0, "separation_cost_db": 0.0}
     cfg = _cfg({"coverage": paper})
     mission = build_mission(cfg)

@@ -215,10 +215,10 @@ def bench_stage(
     local games (virtual means) → potentials → mean-field → actions.
 
     Robots are uniform in a square sized so that N_i(h) holds about ``mean_neighbours``
-    robots on average (disk graph of ``radius_m``, the 802.11a/Friis range of REFERENCE.md
+    robots on average (disk graph of ``radius_m``, the 802.11a/Friis range of docs/reference.md
     section 2; BFS hop counts as settled OLSR, section 4). Actions: stay + 8 headings of 10 m.
     Potentials: a smooth unary (distance to the centre) and a pairwise link-quality term of
-    the form of eq. 5 (log-distance signal), so the evaluation cost is representative.
+    the form of eq. 6 (log-distance signal), so the evaluation cost is representative.
 
     buckets : int
         Passed to :func:`~swarmgames.game.stage.solve_stage` (0 = automatic).

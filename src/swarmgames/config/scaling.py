@@ -12,7 +12,7 @@ radius :math:`r = \\sigma\\sqrt{k^2}`, :math:`k^2 = -2\\ln(1 - c)`; holding
 .. math:: \\sigma^2 = \\frac{N a}{\\pi k^2}.
 
 The default ``a`` = 70 000 m² gives every UAV about six radio neighbours within the
-368.84 m range of the 802.11a link (:math:`\\pi\\, 368.84^2 / a \\approx 6.1`; REFERENCE.md
+368.84 m range of the 802.11a link (:math:`\\pi\\, 368.84^2 / a \\approx 6.1`; docs/reference.md
 section 2), and 175 grid cells of 20 m. The default signal floor, -100 dBm, is the signal at
 about 205 m from a UAV at 30 m altitude, farther than any ROI point lies from its nearest UAV
 once the swarm is spread at this density (hexagonal spacing 284 m, farthest point 164 m): it

@@ -20,7 +20,7 @@ neighbourhoods :math:`N_i(2)`. Overall figures pool the entries of every sample 
 
 References
 ----------
-.. [1] REFERENCE.md section 4: after settling ns-3 routes equal BFS on the 368.84 m disk graph;
+.. [1] docs/reference.md section 4: after settling ns-3 routes equal BFS on the 368.84 m disk graph;
    on moving swarms ns-3 agrees with itself across seeds on about 97 % of entries (99.3 % within
    2 hops).
 """

@@ -15,7 +15,7 @@ hexagon (184.4, 212.9, 368.8 m): hence the default sweep in 1 m steps.
 References
 ----------
 .. [1] M. Fernando et al., ICRA 2022 workshop, Fig. 1.
-.. [2] REFERENCE.md section 4 (ns-3 3.44 values for the line and the hexagon).
+.. [2] docs/reference.md section 4 (ns-3 3.44 values for the line and the hexagon).
 """
 
 from __future__ import annotations

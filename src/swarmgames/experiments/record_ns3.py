@@ -14,7 +14,7 @@ its run number, recorded in ``meta.json``):
   1 km x 1 km at 30 m altitude for 150 s; positions every 0.5 s, tables every 1 s.
 * ``hex_expand``: 7 UAVs, a centre and a ring of 6 whose radius holds at 100 m for 10 s, grows
   at 5 m/s to 500 m, shrinks back to 100 m and holds (180 s); positions every 0.1 s, tables
-  every 0.5 s (REFERENCE.md section 4).
+  every 0.5 s (docs/reference.md section 4).
 
 Usage::
 
@@ -23,7 +23,7 @@ Usage::
 
 References
 ----------
-.. [1] REFERENCE.md section 4 (measured ns-3 behaviour and the ``hex_expand`` recording).
+.. [1] docs/reference.md section 4 (measured ns-3 behaviour and the ``hex_expand`` recording).
 .. [2] T. Camp, J. Boleng, V. Davies, "A survey of mobility models for ad hoc network
    research", WCMC 2002: the random waypoint model.
 """

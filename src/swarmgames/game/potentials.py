@@ -52,7 +52,7 @@ class Potentials(Protocol):
 
     ``unary(batch)`` returns ``(B, K, A)``: φ_u for every variable and action. It may depend on
     the *states* (not the actions) of the other variables of the same game (the coverage unary,
-    eq. 4, does). ``pairwise(batch)`` returns ``(B, K, K, A, A)`` with
+    eq. 5, does). ``pairwise(batch)`` returns ``(B, K, K, A, A)`` with
     ``[b, k, l, a, c] = φ_p(S_k, a, S_l, c)``, or ``None`` when there is no pairwise term. Values
     at padding, invalid actions and ``k == l`` are ignored (they may be anything, even NaN).
 

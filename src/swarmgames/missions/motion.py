@@ -163,7 +163,7 @@ class AccelerationActions:
 
     References
     ----------
-    .. [1] REFERENCE.md section 5: the authors' flocking controller, 25 acceleration labels on
+    .. [1] docs/reference.md section 5: the authors' flocking controller, 25 acceleration labels on
        a ±0.5 m/s² grid (step 0.25) rolled forward over 1 s with |v| < 1 m/s.
 
     Examples

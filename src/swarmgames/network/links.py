@@ -8,7 +8,7 @@ the pair's static draw when the model has a shadowing key (providers always give
 fading is drawn anew at every call, that is at every position update.
 
 With a deterministic model (the default Friis) the range is a hard cut: ``d <= 368.84 m``
-(REFERENCE.md section 2). With shadowing or fading the range is probabilistic; the KD-tree
+(docs/reference.md section 2). With shadowing or fading the range is probabilistic; the KD-tree
 radius is then the distance beyond which a link has probability below ``1e-6``
 (:func:`swarmgames.network.propagation.max_range`), so dropping those pairs changes the graph
 with negligible probability.

@@ -6,7 +6,7 @@ chunks (``Simulator.Stop(dt); Simulator.Run()``) and the hop counts are read fro
 ``olsr::RoutingProtocol::GetRoutingTableEntries()``: the same view the paper's ROSNS3 bridge sent
 to its controllers.
 
-The radio, as the built-in ``olsr`` model assumes it (REFERENCE.md sections 2 and 4):
+The radio, as the built-in ``olsr`` model assumes it (docs/reference.md sections 2 and 4):
 
 * 802.11a, constant rate 6 Mbit/s for data and control (OLSR broadcasts go at 6 Mbit/s);
 * transmit power ``radio.tx_power_dbm`` (16.0206 dBm by default);

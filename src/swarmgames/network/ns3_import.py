@@ -1,6 +1,6 @@
 """Lazy, quiet import of the ns-3 Python bindings (the optional ``ns3`` package).
 
-``from ns import ns`` is expensive and fussy (REFERENCE.md section 4):
+``from ns import ns`` is expensive and fussy (docs/reference.md section 4):
 
 * it takes 12-18 s and about 665 MB in every process, so it happens at most once per process
   and only when the ``ns3`` backend is actually chosen;

@@ -1,6 +1,6 @@
 """The ``oracle`` provider: instant shortest-path hop counts on the current link graph.
 
-It is what OLSR converges to when nothing moves (REFERENCE.md section 4: 16 226 of 16 226
+It is what OLSR converges to when nothing moves (docs/reference.md section 4: 16 226 of 16 226
 routes equal BFS after settling), without OLSR's start-up time and lag.
 """
 

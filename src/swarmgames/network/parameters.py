@@ -8,7 +8,7 @@ are the same.
 
 References
 ----------
-.. [1] ns-3 3.44 defaults (REFERENCE.md section 2): 16.0206 dBm, Friis at 5.15 GHz, -82 dBm.
+.. [1] ns-3 3.44 defaults (docs/reference.md section 2): 16.0206 dBm, Friis at 5.15 GHz, -82 dBm.
 .. [2] RFC 3626 section 18 (OLSR intervals and hold times).
 """
 

@@ -30,7 +30,7 @@ References
 ----------
 .. [1] ns-3 3.44, ``src/propagation/model/propagation-loss-model.cc`` (Friis, LogDistance) and
    ``nakagami-propagation-loss-model.cc``.
-.. [2] REFERENCE.md section 2 (defaults: 16.0206 dBm, 5.15 GHz, L = 1, n = 3, d0 = 1 m,
+.. [2] docs/reference.md section 2 (defaults: 16.0206 dBm, 5.15 GHz, L = 1, n = 3, d0 = 1 m,
    L0 = 46.6777 dB, -82 dBm reception threshold, range 368.84 m).
 """
 
@@ -180,7 +180,7 @@ class PropagationModel:
     Notes
     -----
     A frame is received when its power is at least ``radio.rx_threshold_dbm`` (ns-3's -82 dBm
-    preamble-detection gate at 6 Mbit/s, REFERENCE.md section 2).
+    preamble-detection gate at 6 Mbit/s, docs/reference.md section 2).
     """
 
     radio: RadioParameters = field(default_factory=RadioParameters)

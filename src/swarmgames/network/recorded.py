@@ -9,7 +9,7 @@ run can be compared with a live backend on a machine without ns-3.
 
 References
 ----------
-.. [1] REFERENCE.md section 4, ``ns3/hex_expand``: the recording format.
+.. [1] docs/reference.md section 4, ``ns3/hex_expand``: the recording format.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""OLSR engine behaviour against RFC 3626 and ns-3 measurements (REFERENCE.md sections 3-4)."""
+"""OLSR engine behaviour against RFC 3626 and ns-3 measurements (docs/reference.md sections 3-4)."""
 
 import numpy as np
 import pytest
@@ -23,8 +23,8 @@ def _run(provider, positions, until, every=0.5, start=0.0):
 
 
 def test_link_sensing_takes_two_hello_rounds():
-    # REFERENCE.md section 3 / RFC 3626 7.1: empty -> asymmetric -> symmetric in two HELLO
-    # rounds; ns-3's first 1-hop routes appear at 2.3-2.5 s (REFERENCE.md section 4).
+    # docs/reference.md section 3 / RFC 3626 7.1: empty -> asymmetric -> symmetric in two HELLO
+    # rounds; ns-3's first 1-hop routes appear at 2.3-2.5 s (docs/reference.md section 4).
     for seed in range(10):
         p = OlsrProvider(2, seed=seed)
         p.reset(NEAR)
@@ -34,7 +34,7 @@ def test_link_sensing_takes_two_hello_rounds():
 
 
 def test_symmetric_link_lapses_after_neighbour_hold_time():
-    # REFERENCE.md section 3: a symmetric link lapses 6 s after the last confirming HELLO.
+    # docs/reference.md section 3: a symmetric link lapses 6 s after the last confirming HELLO.
     p = OlsrProvider(2, seed=0)
     p.reset(NEAR)
     _run(p, NEAR, 20.0)
@@ -46,7 +46,7 @@ def test_symmetric_link_lapses_after_neighbour_hold_time():
 @pytest.mark.parametrize("seed", range(8))
 @pytest.mark.parametrize("t_break", [20.0, 20.5, 21.0, 21.5])
 def test_lost_link_leaves_table_4_5_to_6_s_late(seed, t_break):
-    # REFERENCE.md section 4: in ns-3 a broken link leaves the table 4.5-6 s late
+    # docs/reference.md section 4: in ns-3 a broken link leaves the table 4.5-6 s late
     # (tables sampled every 0.5 s).
     p = OlsrProvider(2, seed=seed)
     p.reset(NEAR)
@@ -60,7 +60,7 @@ def test_lost_link_leaves_table_4_5_to_6_s_late(seed, t_break):
 @pytest.mark.parametrize("seed", range(8))
 @pytest.mark.parametrize("t_new", [20.0, 21.0, 21.5])
 def test_new_link_appears_2_to_3_5_s_late(seed, t_new):
-    # REFERENCE.md section 4: in ns-3 a new link appears 2-3.5 s late. (A link that appears
+    # docs/reference.md section 4: in ns-3 a new link appears 2-3.5 s late. (A link that appears
     # just after a HELLO round was sent, t = 20.5 here, waits up to 4 s: two full rounds.)
     p = OlsrProvider(2, seed=seed)
     p.reset(FAR)
@@ -79,7 +79,7 @@ def test_new_link_never_takes_more_than_two_rounds():
 
 
 def test_routes_beyond_two_hops_need_tcs():
-    # REFERENCE.md section 3: for h <= 2 only HELLO state matters; TCs matter from 3 hops on.
+    # docs/reference.md section 3: for h <= 2 only HELLO state matters; TCs matter from 3 hops on.
     pos = np.c_[np.arange(6) * 300.0, np.zeros(6), np.zeros(6)]
     full = OlsrProvider(6, seed=1)
     full.reset(pos)
@@ -96,7 +96,7 @@ def test_routes_beyond_two_hops_need_tcs():
 
 @pytest.mark.parametrize("seed", range(3))
 def test_line_of_20_start_up_matches_ns3(seed):
-    # REFERENCE.md section 4: a 20-node line had 198 of 380 routes at 10 s and all at 20 s in
+    # docs/reference.md section 4: a 20-node line had 198 of 380 routes at 10 s and all at 20 s in
     # ns-3. At 100 m spacing each node links to 3 on each side (range 368.84 m), so 198 is
     # exactly the routes of at most 2 hops: the first TCs (t = 10 s + jitter) are not in yet.
     pos = np.c_[np.arange(20) * 100.0, np.zeros(20), np.zeros(20)]
@@ -109,7 +109,7 @@ def test_line_of_20_start_up_matches_ns3(seed):
 
 
 def test_no_tc_without_mpr_selectors():
-    # ns-3 sends no empty TCs (REFERENCE.md section 3): two nodes never select MPRs.
+    # ns-3 sends no empty TCs (docs/reference.md section 3): two nodes never select MPRs.
     p = OlsrProvider(2, seed=0)
     p.reset(NEAR)
     p.advance(30.0, NEAR)
@@ -137,7 +137,7 @@ def _bfs(pos):
     seed=st.integers(0, 2**16),
 )
 def test_settled_tables_equal_bfs(n, side, seed):
-    # REFERENCE.md section 4: after settling, OLSR hop counts equal BFS on the disk graph
+    # docs/reference.md section 4: after settling, OLSR hop counts equal BFS on the disk graph
     # (16 226 of 16 226 routes in ns-3).
     rng = np.random.default_rng(seed)
     pos = np.c_[rng.uniform(0, side, (n, 2)), np.zeros(n)]
@@ -244,7 +244,7 @@ def test_two_hop_route_follows_the_relay_s_next_hello(seed):
 @given(n=st.integers(2, 15), seed=st.integers(0, 2**16))
 def test_tables_reconverge_after_the_swarm_moves(n, seed):
     # Stale state (links, 2-hop and topology tuples held 6 s / 15 s) must not survive: 40 s
-    # after a jump to a new layout, the tables equal BFS on the new link graph (REFERENCE.md
+    # after a jump to a new layout, the tables equal BFS on the new link graph (docs/reference.md
     # section 4), with no route into another component.
     rng = np.random.default_rng(seed)
     a = np.c_[rng.uniform(0, 1200, (n, 2)), np.zeros(n)]

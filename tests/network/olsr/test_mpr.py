@@ -64,7 +64,7 @@ def test_ns3_will_never_neighbour_is_not_mpr():
 
 
 def test_tie_goes_to_first_heard_neighbour():
-    # ns-3's degree tie-break never fires (REFERENCE.md section 3): equal reachability -> the
+    # ns-3's degree tie-break never fires (docs/reference.md section 3): equal reachability -> the
     # neighbour heard first.
     keys = select_mprs(
         5,

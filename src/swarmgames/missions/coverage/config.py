@@ -18,7 +18,7 @@ __all__ = ["CoverageConfig"]
 
 
 class CoverageConfig(Section):
-    """Communication-aware coverage mission (paper section III, eqs. 4-5).
+    """Communication-aware coverage mission (paper section III, eqs. 5-6).
 
     Defaults where the paper is silent: an isotropic Gaussian ROI with sigma = 250 m (its 95 %
     ellipse has a 612 m radius, so 7 UAVs spread over it sit farther apart than one radio range
@@ -51,7 +51,7 @@ class CoverageConfig(Section):
         1.0,
         ge=0,
         description=(
-            "Temperature of the smooth maximum tau*ln(e^(a/tau) + e^(b/tau)) used for eq. 4's "
+            "Temperature of the smooth maximum tau*ln(e^(a/tau) + e^(b/tau)) used for eq. 5's "
             "max; not in the paper (0 = the hard max), dB."
         ),
     )
@@ -85,14 +85,14 @@ class CoverageConfig(Section):
         ge=0,
         description=(
             "Cost of one move in the unary potential, dB of expected ROI signal; not in the "
-            "paper (0 = eq. 4 exactly); a small cost lets the swarm settle, dB."
+            "paper (0 = eq. 5 exactly); a small cost lets the swarm settle, dB."
         ),
     )
 
     signal_floor_dbm: float | None = Field(
         None,
         description=(
-            "Level below which a signal no longer counts in eq. 4 (signals are clamped to it), "
+            "Level below which a signal no longer counts in eq. 5 (signals are clamped to it), "
             "so a UAV's unary is integrated only over the grid cells within the radius where "
             "its signal reaches the floor; for large swarms (None = the whole ROI, the paper), "
             "dBm."

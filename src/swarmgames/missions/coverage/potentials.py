@@ -1,4 +1,4 @@
-"""Potentials of the communication-aware coverage mission (paper eqs. 4 and 5).
+"""Potentials of the communication-aware coverage mission (paper eqs. 5 and 6).
 
 For the local game of robot ``i`` with variables ``k`` (the owner and its neighbours, or their
 virtual means :math:`\\bar S_j`, eq. 3), state :math:`S_k` and next state :math:`S_k(x_k)` after
@@ -35,7 +35,7 @@ Three additions to the paper, each off when its weight is 0 (the defaults of
 :class:`~swarmgames.config.CoverageConfig` switch them on, and ``docs/coverage.md`` shows
 what each one changes):
 
-Smooth maximum (``softness_db``): with the hard maximum of eq. 4 a robot whose signal is
+Smooth maximum (``softness_db``): with the hard maximum of eq. 5 a robot whose signal is
 nowhere the best in its neighbourhood (inside a clump, behind others) gains nothing from any
 move, so it never leaves. :math:`\\tau \\ln(e^{a/\\tau} + e^{b/\\tau})` exceeds
 :math:`\\max\\{a, b\\}` by at most :math:`\\tau \\ln 2` (at a tie) and by almost nothing
@@ -43,7 +43,7 @@ once the two differ by a few :math:`\\tau`, yet gives such robots a gradient. Th
 *metric* keeps the hard maximum.
 
 Crowding penalty (``separation_m``, ``separation_cost_db``): robots that take off from one
-small area see almost the same neighbourhood, so eq. 4 gives them almost the same best move and
+small area see almost the same neighbourhood, so eq. 5 gives them almost the same best move and
 they fly in lockstep as a clump. A penalty that grows as a robot's next position comes within
 :math:`d_{sep}` of another robot's current position depends on where each robot sits in the
 clump, so neighbours choose different headings; it doubles as collision avoidance. With
@@ -64,7 +64,7 @@ neighbouring positions for ever.
 References
 ----------
 .. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
-   Communication Networks", ICRA 2022 workshop (arXiv 2205.02203), eqs. 1, 3, 4, 5.
+   Communication Networks", ICRA 2022 workshop (arXiv 2205.02203), eqs. 1, 3, 5, 6.
 """
 
 from __future__ import annotations
@@ -99,7 +99,7 @@ _DENSE_METRIC_ELEMS = 20_000_000
 
 @dataclass(eq=False)
 class CoveragePotentials:
-    """Unary (eq. 4) and pairwise (eq. 5) potentials of the coverage mission.
+    """Unary (eq. 5) and pairwise (eq. 6) potentials of the coverage mission.
 
     Parameters
     ----------
@@ -109,7 +109,7 @@ class CoveragePotentials:
         :math:`\\psi_R`.
     softness_db : float, default 0.0
         Temperature :math:`\\tau` (dB) of the smooth maximum that replaces
-        :math:`\\max\\{a, b\\}` in eq. 4 by :math:`\\tau \\ln(e^{a/\\tau} + e^{b/\\tau})`
+        :math:`\\max\\{a, b\\}` in eq. 5 by :math:`\\tau \\ln(e^{a/\\tau} + e^{b/\\tau})`
         (0 = the hard maximum). See the module notes.
     separation_m, separation_cost_db : float, default 0.0
         Crowding penalty: :math:`c_{sep} \\sum_g p(r_g) a^2 \\sum_{l \ne k}
@@ -128,12 +128,12 @@ class CoveragePotentials:
     workers : int, default 1
         Threads of the windowed integral (``signal_floor_dbm`` set).
     signal_floor_dbm : float or None, default None
-        Signals below this level count as the level in eq. 4, and each variable's unary is
+        Signals below this level count as the level in eq. 5, and each variable's unary is
         integrated only over the cells its actions can change, relative to what the other
         variables give there (:mod:`swarmgames.missions.coverage.window`): the unary then
         differs from
-        eq. 4 by a term free of the variable's action, which changes no marginal and no
-        deviation gain. None: the whole ROI (the paper's eq. 4 exactly).
+        eq. 5 by a term free of the variable's action, which changes no marginal and no
+        deviation gain. None: the whole ROI (the paper's eq. 5 exactly).
 
     Attributes
     ----------
@@ -200,7 +200,7 @@ class CoveragePotentials:
 
     # ------------------------------------------------------------------ potentials
     def unary(self, batch) -> np.ndarray:
-        """:math:`\\phi_u(k, x_k)` of eq. 4 for every game, variable and action, (B, K, A)."""
+        """:math:`\\phi_u(k, x_k)` of eq. 5 for every game, variable and action, (B, K, A)."""
         t0 = time.perf_counter()
         mask = np.asarray(batch.mask, dtype=bool)
         amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
@@ -333,7 +333,7 @@ class CoveragePotentials:
         out.reshape(B, K, A, K, A)[gb, gk, :, gl, :] -= (scale * pen).astype(out.dtype)
 
     def pairwise(self, batch) -> np.ndarray:
-        """:math:`\\phi_p(k, x_k, l, x_l)` of eq. 5, shape (B, K, K, A, A); 0 on the diagonal
+        """:math:`\\phi_p(k, x_k, l, x_l)` of eq. 6, shape (B, K, K, A, A); 0 on the diagonal
         ``k == l`` and for padded variables or invalid actions. With the pairwise crowding
         penalty on, :math:`\\phi_{sep} / \\alpha_b` is added (module notes)."""
         mask = np.asarray(batch.mask, dtype=bool)
@@ -356,7 +356,7 @@ class CoveragePotentials:
         return out
 
     def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
-        """Symmetrised eq. 5 in the engine's layout, ``(B, K, A, K, A)``:
+        """Symmetrised eq. 6 in the engine's layout, ``(B, K, A, K, A)``:
         :math:`\\phi_p(k, a, l, c) + \\phi_p(l, c, k, a) = 2\\,\\psi_R(|S_k(a) - S_l(c)|)`
         (the engine's cheaper form of :meth:`pairwise`; a new array), plus
         :math:`2 \\phi_{sep} / \\alpha_b` with the pairwise crowding penalty on; entries of

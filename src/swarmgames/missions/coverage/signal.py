@@ -15,7 +15,7 @@ References
 .. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
    Communication Networks", ICRA 2022 workshop (arXiv 2205.02203), section III.
 .. [2] ns-3 ``LogDistancePropagationLossModel``: exponent 3, reference distance 1 m,
-   reference loss 46.6777 dB (REFERENCE.md section 2).
+   reference loss 46.6777 dB (docs/reference.md section 2).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The coverage unary (eq. 4) integrated only over the grid cells a UAV can change.
+"""The coverage unary (eq. 5) integrated only over the grid cells a UAV can change.
 
 With a signal floor :math:`F` (``coverage.signal_floor_dbm``) every signal below it counts as
 :math:`F`: :math:`\\psi_F(d) = \\max\\{\\psi_R(d), F\\}`. A UAV's signal then reaches above the
@@ -6,7 +6,7 @@ floor only within the radius :math:`d_F` where :math:`\\psi_R(d_F) = F`, i.e.
 :math:`d_F = d_0\\, 10^{(T_0 - L_0 - F) / (10 n)}` (3-D; on the ground
 :math:`R_F = \\sqrt{d_F^2 - z^2}`). For a variable ``k`` whose actions move it by at most
 :math:`s`, every cell ``g`` farther than :math:`R_F + s` from its current position has
-:math:`\\psi_F(S_k(x_k), r_g) = F` for *every* action, so the term of eq. 4 at ``g`` is the
+:math:`\\psi_F(S_k(x_k), r_g) = F` for *every* action, so the term of eq. 5 at ``g`` is the
 same for all of ``k``'s actions. Such terms do not change ``k``'s marginal (mean-field
 normalises each variable's distribution over its own actions, Algorithm 1) nor any deviation
 gain, so they are left out, and
@@ -36,7 +36,7 @@ Everything runs in float32 (signals are needed to 0.01 dB; float32 resolves 1e-5
 References
 ----------
 .. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
-   Communication Networks", ICRA 2022 workshop (arXiv 2205.02203), eq. 4.
+   Communication Networks", ICRA 2022 workshop (arXiv 2205.02203), eq. 5.
 """
 
 from __future__ import annotations

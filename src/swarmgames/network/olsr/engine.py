@@ -39,7 +39,7 @@ References
 ----------
 .. [1] RFC 3626 sections 3.4, 6-10, 18.
 .. [2] ns-3 3.44 ``src/olsr/model/olsr-routing-protocol.cc``.
-.. [3] REFERENCE.md section 3.
+.. [3] docs/reference.md section 3.
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ strict 2-hop neighbours reachable through N):
 3. while a node of N2 is uncovered, add the neighbour with the highest willingness, then the
    highest reachability (number of still-uncovered N2 nodes it reaches). ns-3's tie-break on the
    neighbour's degree never fires (it looks the degree up under the wrong address), so ties go
-   to the neighbour heard first; the optional redundancy pruning is not done (REFERENCE.md
+   to the neighbour heard first; the optional redundancy pruning is not done (docs/reference.md
    section 3).
 
 References
