@@ -16,6 +16,7 @@ from swarmgames.game.equilibrium import (
     profile_payoff,
     pure_equilibria,
 )
+from swarmgames.game.inertia import Inertia
 from swarmgames.game.local import (
     LocalView,
     LocalViews,
@@ -47,7 +48,14 @@ from swarmgames.game.solvers import (
     make_solver,
     normalise_rng,
 )
-from swarmgames.game.stage import StageSolution, solve_stage, stage_regret
+from swarmgames.game.stage import (
+    StageSolution,
+    evaluate_games,
+    measure_stage,
+    plan_stage,
+    solve_stage,
+    stage_regret,
+)
 from swarmgames.game.virtual import neighbourhood_means, reaches_outside
 
 __all__ = [
@@ -59,6 +67,7 @@ __all__ = [
     "FunctionPotentials",
     "GamePayoffs",
     "GameSolution",
+    "Inertia",
     "LocalGameBatch",
     "LocalView",
     "LocalViews",
@@ -80,6 +89,7 @@ __all__ = [
     "check_potentials",
     "deviation_gains",
     "enumerate_payoffs",
+    "evaluate_games",
     "evaluate_payoffs",
     "exact_profiles",
     "gather_views",
@@ -88,8 +98,10 @@ __all__ = [
     "local_regret",
     "make_solver",
     "mean_field",
+    "measure_stage",
     "neighbourhood_means",
     "normalise_rng",
+    "plan_stage",
     "profile_payoff",
     "pure_equilibria",
     "random_profiles",

@@ -79,8 +79,10 @@ def plot_timeseries(result) -> Figure:
         net.plot(sw["t"], n * sw["oscillation"], label="oscillating robots", ls="--")
     net.set_ylabel("network / motion")
     net.legend(fontsize="small")
-    for ax in axs[-1]:
+    for col in range(2):  # the lowest visible panel of each column carries the time axis
+        ax = [a for a in axs[:, col] if a.get_visible()][-1]
         ax.set_xlabel("time (s)")
+        ax.tick_params(labelbottom=True)
     cfg = result.config
     fig.suptitle(
         f"{cfg.name} ({result.summary.get('mission', cfg.scenario)}): "

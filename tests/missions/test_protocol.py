@@ -1,0 +1,290 @@
+"""The mission protocol: conformance checks, the registry and its entry points, run(mission=)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+from pydantic import Field
+
+import swarmgames
+from swarmgames.config import ScenarioConfig, parse_config, resolve_scenario, to_toml
+from swarmgames.errors import ConfigError
+from swarmgames.game import FunctionPotentials
+from swarmgames.missions import (
+    ENTRY_POINT_GROUP,
+    HeadingActions,
+    Mission,
+    MissionEntry,
+    check_mission,
+    get_mission,
+    mission_names,
+    register_mission,
+    unregister_mission,
+)
+from swarmgames.missions import registry as registry_module
+from swarmgames.missions.conformance import MissionCheckError
+from swarmgames.section import Section
+from swarmgames.sim import build_mission, run
+
+from ..sim.conftest import DiskOracle
+
+GOAL = np.array([100.0, 0.0])
+
+
+@dataclass(frozen=True, eq=False)
+class GoalMission:
+    """Fly to a goal: written here as a user would, outside swarmgames."""
+
+    potentials: object = FunctionPotentials(lambda s: -np.linalg.norm(s[..., :2] - GOAL, axis=-1))
+    action_model: object = HeadingActions(10.0, 4)
+    name: str = "goal"
+    state_dim: int = 3
+
+    def initial_states(self, n_robots, rng):
+        return np.c_[rng.uniform(-50, 50, (n_robots, 2)), np.full(n_robots, 30.0)]
+
+    def swarm_metrics(self, states, previous):
+        return {"goal_distance_m": float(np.linalg.norm(states[:, :2] - GOAL, axis=1).mean())}
+
+    def robot_metrics(self, states):
+        return {"goal_distance_m": np.linalg.norm(states[:, :2] - GOAL, axis=1)}
+
+    def summary(self, times, swarm):
+        return {"goal_distance_end_m": float(swarm["goal_distance_m"][-1])}
+
+
+def test_every_registered_mission_conforms():
+    for name in mission_names():
+        config = parse_config({"scenario": name, "name": name})
+        mission = build_mission(config)
+        assert isinstance(mission, Mission)
+        check_mission(mission)
+
+
+def test_a_user_mission_runs_with_every_output(tmp_path):
+    cfg = parse_config({"swarm": {"n_robots": 4}, "sim": {"duration_s": 12.0, "warmup_s": 2.0}})
+    mission = GoalMission()
+    check_mission(mission)
+    res = run(cfg, out=tmp_path / "r", progress=False, provider=DiskOracle(), mission=mission)
+    sw = res.to_frame()
+    assert sw["goal_distance_m"].iloc[-1] < sw["goal_distance_m"].iloc[0] - 50.0
+    assert "coverage" not in sw  # nothing of the configured coverage mission ran
+    assert "goal_distance_m" in res.to_frame("metrics")
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert summary["mission"] == "goal" and summary["goal_distance_end_m"] < 60.0
+    for f in ("trajectory.csv", "metrics.csv", "swarm.csv", "timeseries.png", "paths.png"):
+        assert (tmp_path / "r" / f).stat().st_size > 0
+    assert (tmp_path / "r" / "animation.gif").read_bytes()[:3] == b"GIF"
+
+
+def test_run_refuses_an_object_that_is_no_mission():
+    with pytest.raises(TypeError, match="check_mission"):
+        run(ScenarioConfig(), progress=False, mission=object())
+
+
+def _broken(**changes):
+    return dataclasses.replace(GoalMission(), **changes)
+
+
+class _Global(GoalMission):
+    def initial_states(self, n_robots, rng):
+        return np.c_[np.random.uniform(-50, 50, (n_robots, 2)), np.full(n_robots, 30.0)]  # noqa: NPY002
+
+
+class _WrongShape(GoalMission):
+    def initial_states(self, n_robots, rng):
+        return np.zeros((n_robots, 2))
+
+
+class _BadMetrics(GoalMission):
+    def swarm_metrics(self, states, previous):
+        return {"mean_payoff": 1.0, "bad": float("nan"), "flag": True}
+
+
+class _BadHooks(GoalMission):
+    def robot_metrics(self, states):
+        return {"d": np.zeros(2)}
+
+    def summary(self, times, swarm):
+        return {"when": object()}
+
+    def extent(self):
+        return (1.0, 0.0, 0.0, 1.0)
+
+
+@pytest.mark.parametrize(
+    ("mission", "problems"),
+    [
+        (_broken(name=""), ["name must be a non-empty string"]),
+        (_broken(state_dim=2), ["state_dim must be an integer >= 3"]),
+        (_WrongShape(), ["initial_states must return shape (4, 3)"]),
+        (_Global(), ["global random state", "not reproducible"]),
+        (
+            _BadMetrics(),
+            [
+                "'mean_payoff' is a column the simulation writes itself",
+                "swarm_metrics (first stage)['bad'] must be a finite real number",
+                "['flag'] must be a finite real number",
+            ],
+        ),
+        (
+            _BadHooks(),
+            [
+                "robot_metrics['d'] must be a numeric array of shape (4,)",
+                "summary must return JSON-serialisable values",
+                "extent() must be (xmin, xmax, ymin, ymax)",
+            ],
+        ),
+        (
+            _broken(potentials=FunctionPotentials(lambda s: np.full(s.shape[:-1], np.nan))),
+            ["unary potential is not finite"],
+        ),
+    ],
+)
+def test_check_mission_names_every_problem(mission, problems):
+    with pytest.raises(MissionCheckError) as info:
+        check_mission(mission)
+    text = str(info.value)
+    for problem in problems:
+        assert problem in text, text
+
+
+def test_check_mission_reports_missing_attributes_at_once():
+    class Half:
+        name = "half"
+
+    with pytest.raises(MissionCheckError) as info:
+        check_mission(Half())
+    assert len(info.value.problems) == 5  # every required attribute but the name
+    assert "missing required attribute 'initial_states'" in str(info.value)
+
+
+# --------------------------------------------------------------------------- the registry
+
+
+class GoalConfig(Section):
+    """Fly to a goal."""
+
+    goal_x_m: float = Field(100.0, gt=-1e6, lt=1e6, description="Goal x, metres.")
+
+
+def _build(config):
+    return GoalMission()
+
+
+GOAL_ENTRY = MissionEntry("goal", GoalConfig, _build, "fly to a goal")
+
+
+@pytest.fixture
+def goal_registered():
+    register_mission(GOAL_ENTRY, replace=True)
+    yield GOAL_ENTRY
+    unregister_mission("goal")
+
+
+def test_a_registered_mission_has_its_own_validated_section(goal_registered):
+    cfg = parse_config({"scenario": "goal", "goal": {"goal_x_m": 5.0}})
+    assert isinstance(cfg.mission, GoalConfig) and cfg.mission.goal_x_m == 5.0
+    assert "[goal]\ngoal_x_m = 5.0" in to_toml(cfg)
+    assert parse_config(__import__("tomllib").loads(to_toml(cfg))) == cfg
+    with pytest.raises(ConfigError, match=r"goal\.goal_x_m: must be > -1000000"):
+        parse_config({"scenario": "goal", "goal": {"goal_x_m": -1e9}})
+    with pytest.raises(ConfigError, match=r"goal\.speed: is not a known field"):
+        parse_config({"scenario": "goal", "goal": {"speed": 1.0}})
+    with pytest.raises(ConfigError, match=r"coverage: is the section of mission 'coverage'"):
+        parse_config({"scenario": "goal", "coverage": {"grid_cell_m": 5.0}})
+    assert cfg.with_overrides({"goal.goal_x_m": 7.0}).mission.goal_x_m == 7.0
+
+
+def test_unknown_mission_names_close_matches():
+    with pytest.raises(ConfigError, match=r"unknown mission 'coverag'; did you mean 'coverage'"):
+        get_mission("coverag")
+    with pytest.raises(ConfigError, match=r"scenario: unknown mission 'nope'"):
+        resolve_scenario(None, ["scenario='nope'"])
+
+
+def test_register_refuses_a_taken_name_and_bad_entries(goal_registered):
+    with pytest.raises(ValueError, match="already registered"):
+        register_mission(MissionEntry("goal", GoalConfig, _build))
+    with pytest.raises(ValueError, match="built in"):
+        unregister_mission("coverage")
+    with pytest.raises(TypeError, match=r"subclass of swarmgames\.section\.Section"):
+        MissionEntry("x", dict, _build)
+    with pytest.raises(ValueError, match="Python identifier"):
+        MissionEntry("two words", GoalConfig, _build)
+
+
+class _EntryPoint:
+    """What importlib.metadata.entry_points returns, for a fake installed plug-in."""
+
+    def __init__(self, name, value, obj):
+        self.name, self.value, self.obj = name, value, obj
+
+    def load(self):
+        if isinstance(self.obj, Exception):
+            raise self.obj
+        return self.obj
+
+
+@pytest.fixture
+def fresh_registry(monkeypatch):
+    monkeypatch.setattr(registry_module, "_registry", {})
+    monkeypatch.setattr(registry_module, "_loaded", False)
+
+    def install(*points):
+        import importlib.metadata
+
+        def entry_points(group=None):
+            assert group == ENTRY_POINT_GROUP
+            return list(points)
+
+        monkeypatch.setattr(importlib.metadata, "entry_points", entry_points)
+
+    return install
+
+
+def test_a_plugin_registers_through_its_entry_point(fresh_registry, tmp_path):
+    fresh_registry(_EntryPoint("goal", "swarm_goal:ENTRY", GOAL_ENTRY))
+    assert "goal" in mission_names() and "coverage" in mission_names()
+    cfg = parse_config({"scenario": "goal", "swarm": {"n_robots": 3}, "sim": {"duration_s": 4.0}})
+    res = run(cfg, progress=False, provider=DiskOracle())
+    assert res.summary["mission"] == "goal"
+
+
+@pytest.mark.parametrize(
+    ("point", "match"),
+    [
+        (_EntryPoint("goal", "swarm_goal:ENTRY", ImportError("no numpy")), "cannot load"),
+        (_EntryPoint("goal", "swarm_goal:ENTRY", object()), "must be a swarmgames"),
+        (_EntryPoint("other", "swarm_goal:ENTRY", GOAL_ENTRY), "differs from the entry's name"),
+        (
+            _EntryPoint("coverage", "x:E", MissionEntry("coverage", GoalConfig, _build)),
+            "already taken",
+        ),
+    ],
+)
+def test_a_broken_plugin_is_named(fresh_registry, point, match):
+    fresh_registry(point)
+    with pytest.raises(ConfigError, match=match):
+        mission_names()
+
+
+def test_top_level_exports_the_mission_api():
+    assert swarmgames.Mission is Mission and swarmgames.check_mission is check_mission
+
+
+def test_game_layer_imports_without_the_network_config_or_pandas():
+    code = (
+        "import sys, swarmgames.game; "
+        "bad = [m for m in ('pydantic', 'pandas', 'swarmgames.network', "
+        "'swarmgames.network.olsr.engine', 'swarmgames.config', 'swarmgames.missions') "
+        "if m in sys.modules]; print(bad)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
