@@ -18,15 +18,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from swarmgames.arrays import frozen
+
 __all__ = ["TopologySnapshot"]
-
-
-def _frozen(a: np.ndarray, dtype) -> np.ndarray:
-    out = np.ascontiguousarray(a, dtype=dtype)
-    if out is a:
-        out = out.copy()
-    out.setflags(write=False)
-    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,7 +69,7 @@ class TopologySnapshot:
             arr = np.asarray(getattr(self, name))
             if arr.shape != owner.shape:
                 raise ValueError(f"{name} must have shape {owner.shape} (got {arr.shape})")
-            object.__setattr__(self, name, _frozen(arr[order], dtype))
+            object.__setattr__(self, name, frozen(arr[order], dtype))
 
     @classmethod
     def from_hop_matrix(

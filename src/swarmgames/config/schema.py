@@ -29,6 +29,7 @@ from typing import Any, Literal
 
 from pydantic import Field, SerializeAsAny, field_validator, model_validator
 
+from swarmgames.names import BACKENDS, ENGINES, GAME_SOLVERS
 from swarmgames.section import Section
 
 __all__ = [
@@ -120,7 +121,7 @@ class OlsrConfig(_Section):
 class NetworkConfig(_Section):
     """How each robot's neighbourhood N_i(h) is obtained."""
 
-    backend: Literal["olsr", "oracle", "disk", "knn", "ns3"] = Field(
+    backend: Literal[BACKENDS] = Field(
         "olsr",
         description=(
             "Neighbourhood provider: 'olsr' (built-in RFC 3626 model), 'oracle' (instant "
@@ -141,7 +142,7 @@ class GameConfig(_Section):
     alpha_b: float = Field(
         0.001, ge=0, description="Weight of the pairwise potentials (paper: 0.001)."
     )
-    solver: Literal["mean_field", "best_response", "exact", "centralised", "random"] = Field(
+    solver: Literal[GAME_SOLVERS] = Field(
         "mean_field",
         description=(
             "Local-game solver: mean_field (Algorithm 1), best_response, exact (enumeration), "
@@ -164,7 +165,7 @@ class GameConfig(_Section):
         description="Floating-point precision of the payoff tables and marginals (float32 "
         "halves the memory of the pairwise table, B K^2 A^2 values).",
     )
-    engine: Literal["auto", "compiled", "blas", "sequential"] = Field(
+    engine: Literal[ENGINES] = Field(
         "auto",
         description="Mean-field engine: compiled (Numba kernel, all cores), blas or sequential "
         "(numpy); auto = compiled when Numba is installed. They agree to rounding.",

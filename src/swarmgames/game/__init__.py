@@ -46,7 +46,6 @@ from swarmgames.game.solvers import (
     RandomSolver,
     Solver,
     make_solver,
-    normalise_rng,
 )
 from swarmgames.game.stage import (
     StageSolution,
@@ -100,7 +99,6 @@ __all__ = [
     "mean_field",
     "measure_stage",
     "neighbourhood_means",
-    "normalise_rng",
     "plan_stage",
     "profile_payoff",
     "pure_equilibria",

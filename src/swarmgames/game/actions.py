@@ -138,6 +138,7 @@ class DisplacementActions:
         moves = np.zeros((n_headings, dim))
         moves[:, 0] = step * np.cos(ang)
         moves[:, 1] = step * np.sin(ang)
+        moves[np.abs(moves) < 1e-12] = 0.0  # exact zeros for axis-aligned headings
         if stay:
             moves = np.vstack([np.zeros((1, dim)), moves])
         return cls(moves, lower, upper)

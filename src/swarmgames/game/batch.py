@@ -18,22 +18,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from swarmgames.arrays import frozen
+
 __all__ = ["LocalGameBatch"]
-
-
-def _frozen(a, dtype=None) -> np.ndarray:
-    out = np.array(a, dtype=dtype, copy=True)
-    out.setflags(write=False)
-    return out
-
-
-def _freeze_arrays(obj) -> None:
-    """Replace every ndarray field of a frozen dataclass by a read-only view (no copy)."""
-    for name, value in vars(obj).items():
-        if isinstance(value, np.ndarray) and value.flags.writeable:
-            view = value.view()
-            view.setflags(write=False)
-            object.__setattr__(obj, name, view)
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,20 +88,20 @@ class LocalGameBatch:
             got = np.shape(getattr(self, name))
             if got != shape:
                 raise ValueError(f"{name} must have shape {shape} (got {got})")
-        object.__setattr__(self, "owner", _frozen(self.owner, np.int32))
-        object.__setattr__(self, "members", _frozen(members, np.int32))
-        object.__setattr__(self, "mask", _frozen(self.mask, bool))
-        object.__setattr__(self, "states", _frozen(states))
-        object.__setattr__(self, "is_virtual", _frozen(self.is_virtual, bool))
-        object.__setattr__(self, "next_states", _frozen(nxt))
+        object.__setattr__(self, "owner", frozen(self.owner, np.int32))
+        object.__setattr__(self, "members", frozen(members, np.int32))
+        object.__setattr__(self, "mask", frozen(self.mask, bool))
+        object.__setattr__(self, "states", frozen(states))
+        object.__setattr__(self, "is_virtual", frozen(self.is_virtual, bool))
+        object.__setattr__(self, "next_states", frozen(nxt))
         amask = np.asarray(self.action_mask, dtype=bool) & self.mask[:, :, None]
-        object.__setattr__(self, "action_mask", _frozen(amask))
+        object.__setattr__(self, "action_mask", frozen(amask))
         if self.pair_mask is not None:
             if np.shape(self.pair_mask) != (b, k, k):
                 raise ValueError(
                     f"pair_mask must have shape {(b, k, k)} (got {np.shape(self.pair_mask)})"
                 )
-            object.__setattr__(self, "pair_mask", _frozen(self.pair_mask, bool))
+            object.__setattr__(self, "pair_mask", frozen(self.pair_mask, bool))
 
     @property
     def n_games(self) -> int:

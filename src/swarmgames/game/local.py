@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from swarmgames.arrays import frozen
 from swarmgames.game.actions import ActionModel, action_mask_of
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.virtual import neighbourhood_means, reaches_outside
@@ -46,12 +47,6 @@ __all__ = [
     "local_games",
     "receive",
 ]
-
-
-def _readonly(a, dtype=None) -> np.ndarray:
-    out = np.array(a, dtype=dtype, copy=True)
-    out.setflags(write=False)
-    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,10 +110,10 @@ def broadcast(snapshot: TopologySnapshot, h: int, states: np.ndarray) -> Message
     nbh = snapshot.neighbourhood_matrix(int(h))
     nbh.sort_indices()
     return Messages(
-        state=_readonly(states),
-        indptr=_readonly(nbh.indptr, np.int64),
-        indices=_readonly(nbh.indices, np.int32),
-        mean_state=_readonly(neighbourhood_means(nbh, states)),
+        state=frozen(states),
+        indptr=frozen(nbh.indptr, np.int64),
+        indices=frozen(nbh.indices, np.int32),
+        mean_state=frozen(neighbourhood_means(nbh, states)),
     )
 
 
@@ -158,10 +153,10 @@ def receive(messages: Messages, owner: int) -> LocalView:
     members = _owner_first(messages.neighbourhood(owner), owner)
     return LocalView(
         owner=int(owner),
-        members=_readonly(members),
-        states=_readonly(messages.state[members]),
-        mean_states=_readonly(messages.mean_state[members]),
-        neighbourhoods=tuple(_readonly(messages.neighbourhood(int(j))) for j in members),
+        members=frozen(members),
+        states=frozen(messages.state[members]),
+        mean_states=frozen(messages.mean_state[members]),
+        neighbourhoods=tuple(frozen(messages.neighbourhood(int(j))) for j in members),
     )
 
 
@@ -225,12 +220,12 @@ def gather_views(messages: Messages, owners=None) -> LocalViews:
     safe = np.where(mask, members, 0)
     zero = ~mask[:, :, None]
     return LocalViews(
-        owner=_readonly(owners, np.int32),
-        members=_readonly(members, np.int32),
-        mask=_readonly(mask),
-        states=_readonly(np.where(zero, 0.0, messages.state[safe])),
-        mean_states=_readonly(np.where(zero, 0.0, messages.mean_state[safe])),
-        neighbourhoods=_readonly(_pad_rows(messages.indptr, messages.indices, members)),
+        owner=frozen(owners, np.int32),
+        members=frozen(members, np.int32),
+        mask=frozen(mask),
+        states=frozen(np.where(zero, 0.0, messages.state[safe])),
+        mean_states=frozen(np.where(zero, 0.0, messages.mean_state[safe])),
+        neighbourhoods=frozen(_pad_rows(messages.indptr, messages.indices, members)),
     )
 
 

@@ -67,8 +67,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from swarmgames.game.batch import _freeze_arrays
+from swarmgames.arrays import freeze_fields
 from swarmgames.game.potentials import GamePayoffs, _check_empty_actions
+from swarmgames.names import ENGINES
 
 __all__ = [
     "ENGINES",
@@ -80,7 +81,6 @@ __all__ = [
     "seq_sum",
 ]
 
-ENGINES = ("auto", "compiled", "blas", "sequential")
 """Values of ``mean_field(engine=...)``."""
 
 
@@ -193,7 +193,7 @@ class MeanFieldResult:
     kl: np.ndarray
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_fields(self)
 
 
 def _pair_field(w: np.ndarray, q: np.ndarray, k: int, sequential: bool) -> np.ndarray:

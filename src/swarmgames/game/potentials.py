@@ -35,7 +35,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from swarmgames.game.batch import LocalGameBatch, _freeze_arrays
+from swarmgames.arrays import freeze_fields
+from swarmgames.game.batch import LocalGameBatch
 
 __all__ = [
     "FunctionPotentials",
@@ -161,7 +162,7 @@ class GamePayoffs:
     members: np.ndarray
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_fields(self)
 
     @property
     def shape(self) -> tuple[int, int, int]:

@@ -31,10 +31,13 @@ from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
 
+from swarmgames.arrays import freeze_fields
 from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
-from swarmgames.game.batch import LocalGameBatch, _freeze_arrays
+from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.meanfield import ENGINES, check_parameters, mean_field
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
+from swarmgames.names import SOLVERS
+from swarmgames.rng import as_generator
 
 __all__ = [
     "SOLVERS",
@@ -45,19 +48,8 @@ __all__ = [
     "RandomSolver",
     "Solver",
     "make_solver",
-    "normalise_rng",
     "sample_actions",
 ]
-
-#: Registry names of the solvers (:func:`make_solver`).
-SOLVERS = ("mean_field", "exact", "best_response", "random")
-
-
-def normalise_rng(seed: int | np.random.Generator | None) -> np.random.Generator:
-    """A ``numpy.random.Generator`` from a seed, a Generator (returned as is) or None."""
-    if isinstance(seed, np.random.Generator):
-        return seed
-    return np.random.default_rng(seed)
 
 
 def sample_actions(
@@ -68,7 +60,7 @@ def sample_actions(
 ) -> np.ndarray:
     """One draw per row from ``marginals`` ``(M, A)`` (inverse CDF, one uniform per row, in
     row order); ``fallback`` where rounding lands on an invalid action."""
-    gen = normalise_rng(rng)
+    gen = as_generator(rng)
     draw = gen.random(marginals.shape[0])
     cdf = np.cumsum(marginals, axis=1)
     pick = np.minimum((cdf < draw[:, None]).sum(axis=1), marginals.shape[1] - 1)
@@ -113,7 +105,7 @@ class GameSolution:
     eval_time_s: float = 0.0
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_fields(self)
 
     @property
     def n_games(self) -> int:
@@ -372,7 +364,7 @@ class RandomSolver(_Base):
     def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
         """Random profile of every game."""
         t0 = time.perf_counter()
-        profile = random_profiles(payoffs, normalise_rng(rng))
+        profile = random_profiles(payoffs, as_generator(rng))
         amask = payoffs.action_mask
         q = amask / np.maximum(amask.sum(axis=2, keepdims=True), 1)
         b = profile.shape[0]

@@ -31,8 +31,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from swarmgames.arrays import freeze_fields
 from swarmgames.game.actions import ActionModel
-from swarmgames.game.batch import LocalGameBatch, _freeze_arrays
+from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.equilibrium import global_regret, local_regret, profile_payoff
 from swarmgames.game.local import (
     Messages,
@@ -43,7 +44,8 @@ from swarmgames.game.local import (
     local_games,
 )
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
-from swarmgames.game.solvers import GameSolution, Solver, normalise_rng, sample_actions
+from swarmgames.game.solvers import GameSolution, Solver, sample_actions
+from swarmgames.rng import as_generator
 from swarmgames.topology import TopologySnapshot
 
 __all__ = [
@@ -109,7 +111,7 @@ class StageSolution:
     solution: GameSolution | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
-        _freeze_arrays(self)
+        freeze_fields(self)
 
     @property
     def n_robots(self) -> int:
@@ -301,7 +303,7 @@ def solve_stage(
     >>> stage.actions.tolist(), stage.local_regret.tolist()
     ([1, 1], [0.0, 0.0])
     """
-    gen = normalise_rng(rng)
+    gen = as_generator(rng)
     states = np.asarray(states, dtype=float)
     n = states.shape[0] if states.ndim == 2 else 0
     if centralised:

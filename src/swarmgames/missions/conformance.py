@@ -33,34 +33,10 @@ import numpy as np
 from swarmgames.game.actions import action_mask_of
 from swarmgames.game.checks import check_action_model, check_potentials
 from swarmgames.game.local import local_games
+from swarmgames.missions.protocol import RESERVED_COLUMNS
 from swarmgames.topology import TopologySnapshot
 
-__all__ = ["RESERVED_METRICS", "MissionCheckError", "check_mission"]
-
-#: Column names the simulation writes itself (swarm.csv and metrics.csv).
-RESERVED_METRICS = frozenset(
-    {
-        "t",
-        "robot",
-        "mean_payoff",
-        "mean_hops",
-        "max_hops",
-        "components",
-        "oscillation",
-        "payoff",
-        "neighbours",
-        "local_regret",
-        "global_regret",
-        "iterations",
-        "converged",
-        "solve_ms",
-        "integrate_ms",
-        "x",
-        "y",
-        "z",
-        "action",
-    }
-)
+__all__ = ["MissionCheckError", "check_mission"]
 
 
 class MissionCheckError(ValueError):
@@ -88,7 +64,7 @@ def _metric_problems(where: str, out: Any, n: int | None, keys=None) -> list[str
         if not (isinstance(name, str) and name):
             found.append(f"{where}: metric names must be non-empty strings (got {name!r})")
             continue
-        if name in RESERVED_METRICS:
+        if name in RESERVED_COLUMNS:
             found.append(f"{where}: {name!r} is a column the simulation writes itself")
         if n is None:
             ok = isinstance(val, numbers.Real) and not isinstance(val, bool)

@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from swarmgames.game.actions import DisplacementActions
+
 __all__ = [
     "AccelerationActions",
     "HeadingActions",
@@ -35,9 +37,21 @@ __all__ = [
 STAY = 0
 
 
+def outside_distance(xy: np.ndarray, bounds) -> np.ndarray:
+    """Distance of points ``(..., 2)`` (x, y) from the box ``(xmin, xmax, ymin, ymax)``, 0
+    inside, metres."""
+    xmin, xmax, ymin, ymax = bounds
+    dx = np.maximum(np.maximum(xmin - xy[..., 0], xy[..., 0] - xmax), 0.0)
+    dy = np.maximum(np.maximum(ymin - xy[..., 1], xy[..., 1] - ymax), 0.0)
+    return np.hypot(dx, dy)
+
+
 @dataclass(frozen=True, eq=False)
 class HeadingActions:
     """Stay + ``n_headings`` moves of ``step_m`` metres, kept inside ``bounds``.
+
+    The moves are :meth:`swarmgames.game.actions.DisplacementActions.headings` in 3-D; this
+    class adds the arena rule of the module docstring and action labels.
 
     Parameters
     ----------
@@ -71,13 +85,8 @@ class HeadingActions:
                 raise ValueError(
                     f"bounds must have xmin < xmax and ymin < ymax (got {self.bounds})"
                 )
-        theta = 2.0 * np.pi * np.arange(self.n_headings) / self.n_headings
-        off = np.zeros((self.n_actions, 3))
-        off[1:, 0] = self.step_m * np.cos(theta)
-        off[1:, 1] = self.step_m * np.sin(theta)
-        off[np.abs(off) < 1e-12] = 0.0  # exact zeros for axis-aligned headings
-        off.setflags(write=False)
-        object.__setattr__(self, "offsets", off)
+        moves = DisplacementActions.headings(self.step_m, int(self.n_headings), dim=3)
+        object.__setattr__(self, "offsets", moves.displacements)
 
     @property
     def n_actions(self) -> int:
@@ -95,10 +104,7 @@ class HeadingActions:
         return s[..., None, :] + self.offsets
 
     def _outside(self, xy: np.ndarray) -> np.ndarray:
-        xmin, xmax, ymin, ymax = self.bounds  # type: ignore[misc]
-        dx = np.maximum(np.maximum(xmin - xy[..., 0], xy[..., 0] - xmax), 0.0)
-        dy = np.maximum(np.maximum(ymin - xy[..., 1], xy[..., 1] - ymax), 0.0)
-        return np.hypot(dx, dy)
+        return outside_distance(xy, self.bounds)
 
     def valid(self, states: np.ndarray) -> np.ndarray:
         """Valid actions, shape ``(..., A)`` bool: moves that end inside the arena, or do not
@@ -225,9 +231,8 @@ class AccelerationActions:
         shape = (*s.shape[:-1], self.n_actions)
         if self.bounds is None:
             return np.ones(shape, dtype=bool)
-        box = HeadingActions(1.0, 1, self.bounds)
-        now = box._outside(s[..., :2])[..., None]
-        nxt = box._outside(self.apply(s)[..., :2])
+        now = outside_distance(s[..., :2], self.bounds)[..., None]
+        nxt = outside_distance(self.apply(s)[..., :2], self.bounds)
         ok = nxt <= now + 1e-9
         np.put_along_axis(ok, np.argmin(nxt, axis=-1)[..., None], True, axis=-1)
         return ok

@@ -36,7 +36,35 @@ import numpy as np
 from swarmgames.game.actions import ActionModel
 from swarmgames.game.potentials import Potentials
 
-__all__ = ["OPTIONAL_HOOKS", "Mission"]
+__all__ = [
+    "METRICS_COLUMNS",
+    "NETWORK_COLUMNS",
+    "OPTIONAL_HOOKS",
+    "RESERVED_COLUMNS",
+    "SWARM_HEAD",
+    "TRAJECTORY_COLUMNS",
+    "Mission",
+]
+
+#: Columns the simulation writes itself, in file order: trajectory.csv; metrics.csv (a
+#: mission's robot metrics follow); swarm.csv starts with SWARM_HEAD, then the mission's
+#: metrics, then NETWORK_COLUMNS. No mission metric may take one of these names.
+TRAJECTORY_COLUMNS = ["t", "robot", "x", "y", "z", "action"]
+METRICS_COLUMNS = [
+    "t",
+    "robot",
+    "payoff",
+    "neighbours",
+    "local_regret",
+    "global_regret",
+    "iterations",
+    "converged",
+    "solve_ms",
+    "integrate_ms",
+]
+SWARM_HEAD = ["t", "mean_payoff"]
+NETWORK_COLUMNS = ["mean_hops", "max_hops", "components", "oscillation"]
+RESERVED_COLUMNS = frozenset([*TRAJECTORY_COLUMNS, *METRICS_COLUMNS, *SWARM_HEAD, *NETWORK_COLUMNS])
 
 #: Optional methods and attributes of a mission (see the module docstring).
 OPTIONAL_HOOKS = ("robot_metrics", "summary", "draw", "extent", "density")

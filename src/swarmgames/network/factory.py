@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from swarmgames.errors import BackendUnavailableError, ConfigError
+from swarmgames.names import BACKENDS
 from swarmgames.network.baselines import DiskProvider, KnnProvider
 from swarmgames.network.olsr.provider import OlsrProvider
 from swarmgames.network.oracle import OracleProvider
@@ -12,9 +13,6 @@ from swarmgames.network.parameters import OlsrParameters, RadioParameters
 from swarmgames.network.provider import NeighbourhoodProvider
 
 __all__ = ["BACKENDS", "make_provider"]
-
-#: Names accepted by :func:`make_provider`.
-BACKENDS = ("olsr", "oracle", "disk", "knn", "ns3")
 
 
 def make_provider(

@@ -8,24 +8,15 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-__all__ = ["RunResult", "summarise"]
+from swarmgames.missions.protocol import METRICS_COLUMNS, NETWORK_COLUMNS, TRAJECTORY_COLUMNS
 
-#: Columns of the three tables, in file order.
-TRAJECTORY_COLUMNS = ["t", "robot", "x", "y", "z", "action"]
-METRICS_COLUMNS = [
-    "t",
-    "robot",
-    "payoff",
-    "neighbours",
-    "local_regret",
-    "global_regret",
-    "iterations",
-    "converged",
-    "solve_ms",
-    "integrate_ms",
+__all__ = [
+    "METRICS_COLUMNS",
+    "NETWORK_COLUMNS",
+    "TRAJECTORY_COLUMNS",
+    "RunResult",
+    "summarise",
 ]
-#: The loop's own columns of swarm.csv; the mission's metrics stand after mean_payoff.
-NETWORK_COLUMNS = ["mean_hops", "max_hops", "components", "oscillation"]
 
 
 def _trajectory(log) -> pd.DataFrame:

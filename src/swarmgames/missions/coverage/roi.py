@@ -24,13 +24,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from swarmgames.arrays import frozen
+
 __all__ = ["GaussianROI"]
-
-
-def _frozen(a: np.ndarray, dtype=np.float64) -> np.ndarray:
-    out = np.array(a, dtype=dtype, copy=True)
-    out.setflags(write=False)
-    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,11 +112,11 @@ class GaussianROI:
         m2 = np.einsum("gi,ij,gj->g", rel, inv, rel)
         inside = m2 <= k2
         dens = np.exp(-0.5 * m2[inside]) / (2.0 * np.pi * np.sqrt(np.linalg.det(cov)))
-        object.__setattr__(self, "mean", _frozen(mean))
-        object.__setattr__(self, "cov", _frozen(cov))
+        object.__setattr__(self, "mean", frozen(mean, np.float64))
+        object.__setattr__(self, "cov", frozen(cov, np.float64))
         object.__setattr__(self, "k2", float(k2))
-        object.__setattr__(self, "points", _frozen(rel[inside] + mean))
-        object.__setattr__(self, "weights", _frozen(dens * self.cell_m**2))
+        object.__setattr__(self, "points", frozen(rel[inside] + mean, np.float64))
+        object.__setattr__(self, "weights", frozen(dens * self.cell_m**2, np.float64))
 
     @property
     def n_cells(self) -> int:

@@ -1,0 +1,25 @@
+"""The names of the built-in backends, solvers and engines, kept in one place.
+
+The layers that implement them (:mod:`swarmgames.network.factory`,
+:mod:`swarmgames.game.solvers`, :mod:`swarmgames.game.meanfield`) and the configuration
+schema that accepts them (:mod:`swarmgames.config.schema`, whose ``Literal`` types are built
+from these tuples) all read them here, so the lists cannot drift apart and importing the
+schema does not load the layers.
+"""
+
+from __future__ import annotations
+
+__all__ = ["BACKENDS", "ENGINES", "GAME_SOLVERS", "SOLVERS"]
+
+#: Network providers (``network.backend``).
+BACKENDS = ("olsr", "oracle", "disk", "knn", "ns3")
+
+#: Local-game solvers (:func:`swarmgames.game.solvers.make_solver`).
+SOLVERS = ("mean_field", "exact", "best_response", "random")
+
+#: What ``game.solver`` accepts: the solvers, and the centralised baseline (the mean-field
+#: solver on one swarm-wide game).
+GAME_SOLVERS = (*SOLVERS, "centralised")
+
+#: Mean-field engines (``game.engine``).
+ENGINES = ("auto", "compiled", "blas", "sequential")
