@@ -25,6 +25,7 @@ from swarmgames.missions.registry import (
     register_mission,
     unregister_mission,
 )
+from swarmgames.missions.rendezvous import RendezvousMission
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -34,6 +35,7 @@ __all__ = [
     "HeadingActions",
     "Mission",
     "MissionEntry",
+    "RendezvousMission",
     "SignalModel",
     "arena_for",
     "check_mission",
