@@ -15,7 +15,7 @@ from swarmgames.missions.rendezvous import RendezvousPotentials
 from swarmgames.network.parameters import RadioParameters
 from swarmgames.sim import run
 
-# REFERENCE.md section 2 (ns-3 3.44 Friis defaults): Pr = Pt - 20 log10(4 pi d f / c),
+# docs/reference.md section 2 (ns-3 3.44 Friis defaults): Pr = Pt - 20 log10(4 pi d f / c),
 # Pt = 16.0206 dBm, f = 5.15 GHz, c = 299 792 458 m/s, L = 1; threshold -82 dBm (368.84 m).
 PT, F, C, PTH = 16.0206, 5.15e9, 299_792_458.0, -82.0
 

@@ -308,8 +308,9 @@ class ScenarioConfig(_Section):
     scenario: str = Field(
         "coverage",
         description=(
-            "Mission: a registered mission name (built in: coverage; plug-ins through the "
-            "'swarmgames.missions' entry points); its parameters are the table of that name."
+            "Mission: a registered mission name (built in: coverage, rendezvous, flocking; "
+            "plug-ins through the 'swarmgames.missions' entry points); its parameters are the "
+            "table of that name."
         ),
     )
     seed: int = Field(0, ge=0, description="Seed of the run's numpy random Generator.")

@@ -3,8 +3,8 @@
 :class:`Mission` is the protocol the simulation needs; missions are found by name in a
 registry (:func:`get_mission`) that other packages extend through the entry-point group
 ``swarmgames.missions``; :func:`check_mission` tells a plug-in author what is wrong. Built in:
-``coverage`` (the paper's), with the UAV motion models shared by every mission. See
-``docs/missions.md``.
+``coverage`` (the paper's), ``rendezvous`` and ``flocking``, with the UAV motion models and
+the swarm geometry shared by every mission. See ``docs/missions.md``.
 """
 
 from swarmgames.missions.conformance import check_mission

@@ -22,7 +22,7 @@ paper eq. 3) at state :math:`S_k` with next state :math:`S_k(x_k)` after action 
 where :math:`g` is the goal (x, y), :math:`d_{kl} = \\lVert S_k - S_l \\rVert` the 3-D
 distance now, :math:`P(d)` the mean received power of the network's radio model
 (:meth:`~swarmgames.network.propagation.PropagationModel.mean_rx_power`: Friis or
-log-distance, ns-3's formulas, REFERENCE.md section 2), :math:`P_{th}` the reception
+log-distance, ns-3's formulas, docs/reference.md section 2), :math:`P_{th}` the reception
 threshold ``network.radio.rx_threshold_dbm`` and :math:`m` the margin ``link_margin_db``.
 A pair that is not linked now gets 0: the term keeps links, it does not try to make new ones.
 
@@ -47,7 +47,7 @@ References
 ----------
 .. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
    Communication Networks", ICRA 2022 workshop (arXiv 2205.02203), eqs. 1 and 3.
-.. [2] REFERENCE.md section 2: Friis / log-distance as ns-3 3.44 computes them, the -82 dBm
+.. [2] docs/reference.md section 2: Friis / log-distance as ns-3 3.44 computes them, the -82 dBm
    reception threshold, the 368.84 m range.
 """
 
