@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import sys
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -147,11 +148,22 @@ class RunFolder:
             frame.to_csv(fh, **kwargs)
         return self._done(self.file(name))
 
+    @classmethod
+    def of(cls, folder: RunFolder | str | Path, force: bool = False) -> RunFolder:
+        """``folder`` itself if it is a RunFolder, else a RunFolder at that path."""
+        return folder if isinstance(folder, RunFolder) else cls(folder, force=force)
+
     def save_figure(self, name: str, fig: Any, dpi: int = 150) -> Path:
-        """Save a matplotlib figure (format from the file name) atomically."""
+        """Save a matplotlib figure (format from the file name) atomically, then close it if
+        pyplot manages it (so that writing many figures does not accumulate them)."""
         fmt = Path(name).suffix.lstrip(".") or "png"
-        with atomic_open(self.file(name), "wb") as fh:
-            fig.savefig(fh, format=fmt, dpi=dpi, bbox_inches="tight")
+        try:
+            with atomic_open(self.file(name), "wb") as fh:
+                fig.savefig(fh, format=fmt, dpi=dpi, bbox_inches="tight")
+        finally:
+            plt = sys.modules.get("matplotlib.pyplot")
+            if plt is not None and getattr(fig, "number", None) in plt.get_fignums():
+                plt.close(fig)
         return self._done(self.file(name))
 
 

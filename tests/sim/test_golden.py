@@ -3,9 +3,9 @@
 The files in ``tests/data/golden/<case>/`` were written by ``swarmgames run``
 (``trajectory.csv`` and ``swarm.csv`` as written, ``metrics.csv`` without its two wall-time
 columns): the coverage cases before the mission plug-in redesign, which therefore changed
-nothing they compute, the other missions' cases when they were added. ``trajectory.csv`` must stay byte-identical; the other two
-tables must hold the same values in the columns recorded then (columns added since, such as
-``oscillation``, are checked elsewhere).
+nothing they compute, the other missions' cases when they were added. ``trajectory.csv``
+must stay byte-identical; the other two tables must hold the same values in the columns
+recorded then (columns added since, such as ``oscillation``, are checked elsewhere).
 """
 
 from __future__ import annotations

@@ -196,21 +196,15 @@ class BenchResult:
     def write(self, folder) -> list[Path]:
         """Write ``bench.json``, ``bench.csv`` and ``bench.png`` into ``folder`` (a
         :class:`~swarmgames.runfolder.RunFolder` or a path, created if missing)."""
-        import matplotlib.pyplot as plt
 
         from swarmgames.runfolder import RunFolder
 
-        if not isinstance(folder, RunFolder):
-            folder = RunFolder(Path(folder), force=True)
+        folder = RunFolder.of(folder, force=True)
         paths = [
             folder.write_json("bench.json", {"meta": self.meta, "records": self.records}),
             folder.write_csv("bench.csv", self.to_frame()),
         ]
-        fig = self.plot()
-        try:
-            paths.append(folder.save_figure("bench.png", fig))
-        finally:
-            plt.close(fig)
+        paths.append(folder.save_figure("bench.png", self.plot()))
         return paths
 
 

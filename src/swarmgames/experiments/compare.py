@@ -182,7 +182,7 @@ class CompareResult:
         a path to a new or empty folder)."""
         from swarmgames.runfolder import RunFolder
 
-        run = run_folder if isinstance(run_folder, RunFolder) else RunFolder(run_folder)
+        run = RunFolder.of(run_folder)
         files = [
             run.write_csv("per_time.csv", self.per_time),
             run.write_csv("confusion.csv", self.confusion),
@@ -190,13 +190,8 @@ class CompareResult:
         for b, frame in self.hops.items():
             safe = "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in b)
             files.append(run.write_csv(f"hops_{safe}.csv", frame))
-        import matplotlib.pyplot as plt
 
-        fig = self.plot()
-        try:
-            files.append(run.save_figure("agreement.png", fig))
-        finally:
-            plt.close(fig)
+        files.append(run.save_figure("agreement.png", self.plot()))
         files.append(run.write_json("summary.json", self.summary()))
         return files
 

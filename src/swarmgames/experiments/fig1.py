@@ -111,17 +111,12 @@ class Fig1Result:
 
     def write(self, run_folder) -> list[Path]:
         """Write ``fig1.csv`` and ``fig1.png`` into a RunFolder (or a folder path)."""
-        import matplotlib.pyplot as plt
 
         from swarmgames.runfolder import RunFolder
 
-        run = run_folder if isinstance(run_folder, RunFolder) else RunFolder(run_folder)
+        run = RunFolder.of(run_folder)
         paths = [run.write_csv("fig1.csv", self.frame)]
-        fig = self.plot()
-        try:
-            paths.append(run.save_figure("fig1.png", fig))
-        finally:
-            plt.close(fig)
+        paths.append(run.save_figure("fig1.png", self.plot()))
         return paths
 
 

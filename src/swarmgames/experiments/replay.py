@@ -87,17 +87,12 @@ class ReplayResult:
     def write(self, run_folder) -> list[Path]:
         """Write ``hops.csv``, ``summary.csv`` and ``replay.png`` into a
         :class:`~swarmgames.runfolder.RunFolder` (or a folder path, created if needed)."""
-        import matplotlib.pyplot as plt
 
         from swarmgames.runfolder import RunFolder
 
-        run = run_folder if isinstance(run_folder, RunFolder) else RunFolder(run_folder)
+        run = RunFolder.of(run_folder)
         paths = [run.write_csv("hops.csv", self.hops), run.write_csv("summary.csv", self.summary)]
-        fig = self.plot()
-        try:
-            paths.append(run.save_figure("replay.png", fig))
-        finally:
-            plt.close(fig)
+        paths.append(run.save_figure("replay.png", self.plot()))
         return paths
 
 
