@@ -9,6 +9,7 @@ registry (:func:`get_mission`) that other packages extend through the entry-poin
 
 from swarmgames.missions.conformance import check_mission
 from swarmgames.missions.coverage import CoveragePotentials, GaussianROI, SignalModel
+from swarmgames.missions.flocking import FlockingMission
 from swarmgames.missions.motion import (
     AccelerationActions,
     HeadingActions,
@@ -30,6 +31,7 @@ __all__ = [
     "ENTRY_POINT_GROUP",
     "AccelerationActions",
     "CoveragePotentials",
+    "FlockingMission",
     "GaussianROI",
     "HeadingActions",
     "Mission",

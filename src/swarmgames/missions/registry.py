@@ -44,6 +44,7 @@ ENTRY_POINT_GROUP = "swarmgames.missions"
 #: Built-in missions: name -> "module:attribute" of their entry (imported on first use).
 _BUILTIN = {
     "coverage": "swarmgames.missions.coverage.mission:ENTRY",
+    "flocking": "swarmgames.missions.flocking:ENTRY",
 }
 
 
