@@ -26,6 +26,7 @@ CASES = {
     "centralised": ("coverage", ["game.solver='centralised'", "sim.duration_s=20.0"]),
     "acceleration": ("coverage", ["swarm.action_set='acceleration'", "sim.duration_s=20.0"]),
     "hops3": ("coverage", ["network.hops=3", "swarm.n_robots=12", "sim.duration_s=20.0"]),
+    "flocking": ("flocking", ["sim.duration_s=20.0"]),
 }
 
 
