@@ -220,3 +220,56 @@ def test_run_that_fails_before_writing_leaves_no_folder(runner, tmp_path):
     )
     assert res.exit_code == 2 and "exact" in res.output
     assert not out.exists()
+
+
+@pytest.mark.parametrize("mission", ["rendezvous", "flocking"])
+def test_every_builtin_mission_runs_from_the_cli(runner, tmp_path, mission):
+    out = tmp_path / mission
+    args = ["run", mission, "--out", str(out), "--no-progress"]
+    args += ["--set", "sim.duration_s=4.0", "--set", "sim.animation_frames=2"]
+    res = runner.invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    for name in ("config.toml", "trajectory.csv", "metrics.csv", "swarm.csv", "summary.json"):
+        assert (out / name).stat().st_size > 0
+    for name in ("timeseries.png", "paths.png", "animation.gif"):
+        assert (out / name).stat().st_size > 0
+    assert f'scenario = "{mission}"' in (out / "config.toml").read_text()
+    assert f"[{mission}]" in (out / "config.toml").read_text()
+
+
+def test_missions_list_and_check(runner):
+    res = runner.invoke(cli, ["missions", "list"])
+    assert res.exit_code == 0
+    assert {line.split()[0] for line in res.output.splitlines()} >= {
+        "coverage",
+        "rendezvous",
+        "flocking",
+    }
+    res = runner.invoke(cli, ["missions", "check", "flocking"])
+    assert res.exit_code == 0 and "conforms" in res.output
+    res = runner.invoke(cli, ["missions", "check", "rendevous"])
+    assert res.exit_code == 2 and "did you mean 'rendezvous'" in res.output
+
+
+def test_missions_check_reports_a_broken_plugin(runner):
+    import numpy as np
+
+    from swarmgames.missions import MissionEntry, register_mission, unregister_mission
+    from swarmgames.section import Section
+
+    class Broken:
+        name, state_dim, potentials, action_model = "broken", 3, None, None
+
+        def initial_states(self, n, rng):
+            return np.zeros((n, 2))
+
+        def swarm_metrics(self, states, previous):
+            return {}
+
+    register_mission(MissionEntry("broken", Section, lambda cfg: Broken()), replace=True)
+    try:
+        res = runner.invoke(cli, ["missions", "check", "broken"])
+    finally:
+        unregister_mission("broken")
+    assert res.exit_code == 1
+    assert "initial_states must return shape (4, 3)" in res.output

@@ -499,18 +499,22 @@ def missions_list() -> None:
 )
 @_guarded
 def missions_check(name: str, overrides: tuple[str, ...], robots: int) -> None:
-    """Run the conformance check (check_mission) on mission NAME built from its default
-    section; exit 0 if it conforms, 1 with one line per problem if not."""
-    from swarmgames.config import parse_config
+    """Run the conformance check (check_mission) on mission NAME, built from the built-in
+    scenario of that name if there is one, else from the mission's default section; exit 0 if
+    it conforms, 1 with one line per problem if not."""
+    from swarmgames.config import builtin_scenarios, parse_config, resolve_scenario
     from swarmgames.config.io import set_path
     from swarmgames.missions import check_mission, get_mission
     from swarmgames.missions.conformance import MissionCheckError
 
     entry = get_mission(name)
-    data: dict[str, Any] = {"name": name, "scenario": name}
-    for assignment in overrides:
-        set_path(data, assignment)
-    config = parse_config(data, source=f"mission {name!r}")
+    if name in builtin_scenarios():
+        config = resolve_scenario(name, overrides)
+    else:
+        data: dict[str, Any] = {"name": name, "scenario": name}
+        for assignment in overrides:
+            set_path(data, assignment)
+        config = parse_config(data, source=f"mission {name!r}")
     try:
         check_mission(entry.build(config), n_robots=robots)
     except MissionCheckError as exc:

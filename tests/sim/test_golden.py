@@ -28,6 +28,7 @@ CASES = {
     "acceleration": ("coverage", ["swarm.action_set='acceleration'", "sim.duration_s=20.0"]),
     "hops3": ("coverage", ["network.hops=3", "swarm.n_robots=12", "sim.duration_s=20.0"]),
     "rendezvous": ("rendezvous", ["sim.duration_s=20.0"]),
+    "flocking": ("flocking", ["sim.duration_s=20.0"]),
 }
 
 

@@ -9,6 +9,7 @@ the swarm geometry shared by every mission. See ``docs/missions.md``.
 
 from swarmgames.missions.conformance import check_mission
 from swarmgames.missions.coverage import CoveragePotentials, GaussianROI, SignalModel
+from swarmgames.missions.flocking import FlockingMission
 from swarmgames.missions.motion import (
     AccelerationActions,
     HeadingActions,
@@ -31,6 +32,7 @@ __all__ = [
     "ENTRY_POINT_GROUP",
     "AccelerationActions",
     "CoveragePotentials",
+    "FlockingMission",
     "GaussianROI",
     "HeadingActions",
     "Mission",

@@ -45,6 +45,7 @@ ENTRY_POINT_GROUP = "swarmgames.missions"
 _BUILTIN = {
     "coverage": "swarmgames.missions.coverage.mission:ENTRY",
     "rendezvous": "swarmgames.missions.rendezvous:ENTRY",
+    "flocking": "swarmgames.missions.flocking:ENTRY",
 }
 
 
