@@ -82,3 +82,19 @@ def test_olsr_vs_ns3_record():
     assert rec["benchmark"] == "olsr_vs_ns3" and "skipped" not in rec
     assert rec["olsr_s"] > 0 and rec["ns3_s"] > 0
     assert 0.0 <= rec["route_agreement"] <= 1.0
+
+
+@pytest.mark.parametrize(
+    "overrides",
+    [{"swarm.action_set": "acceleration", "coverage.move_cost_db": 0.0}, {"game.solver": "exact"}],
+)
+def test_stage_bench_runs_the_configured_mission_and_controller(overrides):
+    # The benchmark steps the run's own mission and controller: velocity states for the
+    # acceleration set (it once failed with "states must have 5 columns").
+    from swarmgames.config import scaled_config
+
+    cfg = scaled_config(6).with_overrides(overrides)
+    sb = StageBench(6, config=cfg, seed=1)
+    sb.step()
+    assert sb.states.shape == (6, sb.mission.state_dim)
+    assert len(sb.parts.decide_s) == 1
