@@ -13,6 +13,7 @@ from swarmgames.missions.flocking import FlockingMission
 from swarmgames.missions.motion import (
     AccelerationActions,
     HeadingActions,
+    TakeOff,
     arena_for,
     disc_states,
     uav_actions,
@@ -39,6 +40,7 @@ __all__ = [
     "MissionEntry",
     "RendezvousMission",
     "SignalModel",
+    "TakeOff",
     "arena_for",
     "check_mission",
     "disc_states",

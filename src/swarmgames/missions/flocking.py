@@ -31,7 +31,7 @@ from pydantic import Field
 
 from swarmgames.errors import ConfigError
 from swarmgames.missions.geometry import close_pairs, link_components
-from swarmgames.missions.motion import disc_states, uav_actions
+from swarmgames.missions.motion import TakeOff, uav_actions
 from swarmgames.missions.registry import MissionEntry
 from swarmgames.section import Section
 
@@ -269,9 +269,8 @@ class FlockingMission:
     ----------
     potentials : FlockingPotentials
     action_model : AccelerationActions
-    start_center_m : (float, float)
-    start_radius_m : float
-    altitude_m : float
+    takeoff : TakeOff
+        The take-off disc.
     initial_speed_m_s : float
         Largest initial speed, m/s (0 = at rest).
     collision_m : float
@@ -284,9 +283,7 @@ class FlockingMission:
 
     potentials: FlockingPotentials
     action_model: Any
-    start_center_m: tuple[float, float]
-    start_radius_m: float
-    altitude_m: float
+    takeoff: TakeOff
     initial_speed_m_s: float
     collision_m: float
     radio_range_m: float
@@ -302,9 +299,7 @@ class FlockingMission:
         """Uniform over the take-off disc at the flight altitude, then one random velocity per
         robot: speed uniform in ``[0, initial_speed_m_s]``, heading uniform (drawn after the
         positions, so the positions do not depend on ``initial_speed_m_s``)."""
-        out = disc_states(
-            n_robots, self.start_center_m, self.start_radius_m, self.altitude_m, rng, 5
-        )
+        out = self.takeoff.states(n_robots, rng, 5)
         speed = self.initial_speed_m_s * rng.random(n_robots)
         heading = 2.0 * np.pi * rng.random(n_robots)
         out[:, 3] = speed * np.cos(heading)
@@ -350,7 +345,7 @@ class FlockingMission:
     def draw(self, ax) -> None:
         """An arrow from the take-off centre along the goal velocity, as far as the goal
         velocity flies in the mission time."""
-        cx, cy = self.start_center_m
+        cx, cy = self.takeoff.center_m
         gx, gy = (self.horizon_s * np.asarray(self.potentials.goal_velocity)).tolist()
         if gx == 0 and gy == 0:
             ax.plot([cx], [cy], marker="+", color="tab:green", ms=12, label="goal: hover")
@@ -414,9 +409,7 @@ def build(config) -> FlockingMission:
         potentials=potentials,
         # Unbounded: the flock travels at the goal velocity, out of any fixed arena.
         action_model=uav_actions(sw, config.sim.control_period_s, None),
-        start_center_m=tuple(sw.start_center_m),
-        start_radius_m=sw.start_radius_m,
-        altitude_m=sw.altitude_m,
+        takeoff=TakeOff.of(sw),
         initial_speed_m_s=fl.initial_speed_m_s,
         collision_m=fl.collision_m,
         radio_range_m=max_range(radio),

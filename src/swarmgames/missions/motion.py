@@ -29,6 +29,7 @@ from swarmgames.game.actions import DisplacementActions
 __all__ = [
     "AccelerationActions",
     "HeadingActions",
+    "TakeOff",
     "arena_for",
     "disc_states",
     "uav_actions",
@@ -290,3 +291,29 @@ def uav_actions(swarm, period_s: float, bounds=None) -> HeadingActions | Acceler
             swarm.accel_step_m_s2, swarm.accel_levels, swarm.max_speed_m_s, period_s, bounds
         )
     return HeadingActions(swarm.step_m, swarm.n_headings, bounds)
+
+
+@dataclass(frozen=True)
+class TakeOff:
+    """The common take-off disc of a swarm (``swarm.start_center_m``, ``start_radius_m``,
+    ``altitude_m``), shared by every built-in mission.
+
+    Examples
+    --------
+    >>> disc = TakeOff((0.0, 0.0), 25.0, 30.0)
+    >>> disc.states(4, np.random.default_rng(0), state_dim=5).shape
+    (4, 5)
+    """
+
+    center_m: tuple[float, float]
+    radius_m: float
+    altitude_m: float
+
+    @classmethod
+    def of(cls, swarm) -> TakeOff:
+        """The take-off disc of a :class:`~swarmgames.config.SwarmConfig`."""
+        return cls(tuple(swarm.start_center_m), swarm.start_radius_m, swarm.altitude_m)
+
+    def states(self, n: int, rng: np.random.Generator, state_dim: int = 3) -> np.ndarray:
+        """``n`` UAVs uniform over the disc, at rest (:func:`disc_states`)."""
+        return disc_states(n, self.center_m, self.radius_m, self.altitude_m, rng, state_dim)

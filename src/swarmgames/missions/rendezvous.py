@@ -62,7 +62,7 @@ from pydantic import Field
 from swarmgames.errors import ConfigError
 from swarmgames.game.inertia import Inertia
 from swarmgames.missions.geometry import link_components, link_pairs
-from swarmgames.missions.motion import disc_states, uav_actions
+from swarmgames.missions.motion import TakeOff, uav_actions
 from swarmgames.missions.registry import MissionEntry
 from swarmgames.network.parameters import RadioParameters
 from swarmgames.network.propagation import PropagationModel, max_range
@@ -263,9 +263,8 @@ class RendezvousMission:
     gather_radius_m : float
     radio : RadioParameters
         The radio whose mean received power decides which pairs are linked.
-    start_center_m : (float, float)
-    start_radius_m : float
-    altitude_m : float
+    takeoff : TakeOff
+        The take-off disc.
     """
 
     potentials: Any
@@ -273,9 +272,7 @@ class RendezvousMission:
     goal_m: tuple[float, float]
     gather_radius_m: float
     radio: RadioParameters
-    start_center_m: tuple[float, float]
-    start_radius_m: float
-    altitude_m: float
+    takeoff: TakeOff
     name: str = "rendezvous"
 
     @property
@@ -290,14 +287,7 @@ class RendezvousMission:
 
     def initial_states(self, n_robots: int, rng: np.random.Generator) -> np.ndarray:
         """Uniform over the take-off disc at the flight altitude, at rest."""
-        return disc_states(
-            n_robots,
-            self.start_center_m,
-            self.start_radius_m,
-            self.altitude_m,
-            rng,
-            self.state_dim,
-        )
+        return self.takeoff.states(n_robots, rng, self.state_dim)
 
     def _goal_distances(self, states: np.ndarray) -> np.ndarray:
         xy = np.asarray(states, dtype=float)[:, :2]
@@ -363,7 +353,9 @@ class RendezvousMission:
 
     def extent(self) -> tuple[float, float, float, float]:
         """Box around the goal's gather circle and the take-off disc, metres."""
-        return _box(self.goal_m, self.gather_radius_m, self.start_center_m, self.start_radius_m, 0)
+        return _box(
+            self.goal_m, self.gather_radius_m, self.takeoff.center_m, self.takeoff.radius_m, 0
+        )
 
 
 def build(config) -> RendezvousMission:
@@ -398,9 +390,7 @@ def build(config) -> RendezvousMission:
         goal_m=tuple(rv.goal_m),
         gather_radius_m=rv.gather_radius_m,
         radio=radio,
-        start_center_m=tuple(sw.start_center_m),
-        start_radius_m=sw.start_radius_m,
-        altitude_m=sw.altitude_m,
+        takeoff=TakeOff.of(sw),
     )
 
 

@@ -26,7 +26,7 @@ from swarmgames.missions.coverage.config import CoverageConfig
 from swarmgames.missions.coverage.potentials import CoveragePotentials
 from swarmgames.missions.coverage.roi import GaussianROI
 from swarmgames.missions.coverage.signal import SignalModel
-from swarmgames.missions.motion import arena_for, disc_states, uav_actions
+from swarmgames.missions.motion import TakeOff, arena_for, uav_actions
 from swarmgames.missions.registry import MissionEntry
 
 __all__ = ["ENTRY", "CoverageMission", "build"]
@@ -42,17 +42,14 @@ class CoverageMission:
         The game's potentials (``CoveragePotentials``, usually wrapped in ``Inertia``).
     action_model : HeadingActions or AccelerationActions
     roi : GaussianROI
-    start_center_m : (float, float)
-    start_radius_m : float
-    altitude_m : float
+    takeoff : TakeOff
+        The take-off disc.
     """
 
     potentials: Any
     action_model: Any
     roi: GaussianROI
-    start_center_m: tuple[float, float]
-    start_radius_m: float
-    altitude_m: float
+    takeoff: TakeOff
     name: str = "coverage"
 
     @property
@@ -67,14 +64,7 @@ class CoverageMission:
 
     def initial_states(self, n_robots: int, rng: np.random.Generator) -> np.ndarray:
         """Uniform over the take-off disc at the flight altitude, at rest."""
-        return disc_states(
-            n_robots,
-            self.start_center_m,
-            self.start_radius_m,
-            self.altitude_m,
-            rng,
-            self.state_dim,
-        )
+        return self.takeoff.states(n_robots, rng, self.state_dim)
 
     def swarm_metrics(self, states: np.ndarray, previous: np.ndarray | None) -> dict[str, float]:
         """``coverage``: the ROI's expected best signal, dBm."""
@@ -134,9 +124,7 @@ def build(config) -> CoverageMission:
         potentials=potentials,
         action_model=uav_actions(sw, config.sim.control_period_s, bounds),
         roi=roi,
-        start_center_m=tuple(sw.start_center_m),
-        start_radius_m=sw.start_radius_m,
-        altitude_m=sw.altitude_m,
+        takeoff=TakeOff.of(sw),
     )
 
 
