@@ -115,7 +115,7 @@ def test_ctrl_c_keeps_completed_stages():
     )
     assert log.interrupted
     assert log.actions.shape == (3, 5)
-    assert log.positions.shape == (4, 5, 3)
+    assert log.states.shape == (4, 5, 3)
     np.testing.assert_array_equal(log.times, [2.0, 3.0, 4.0])
     # the network was advanced to the warm-up end and then once per completed stage
     assert provider.calls == [2.0, 3.0, 4.0, 5.0]

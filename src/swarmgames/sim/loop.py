@@ -99,8 +99,8 @@ class StageLog:
 
     Attributes
     ----------
-    times : (S,) stage times, s.  positions : (S + 1, N, D) states at each stage and after
-    the last one.  actions : (S, N).  per_robot : dict of (S, N) arrays (payoff, neighbours,
+    times : (S,) stage times, s.  states : (S + 1, N, D) states at each stage and after the
+    last one.  actions : (S, N).  per_robot : dict of (S, N) arrays (payoff, neighbours,
     local_regret, global_regret, iterations, converged, solve_ms, integrate_ms, then the
     mission's robot metrics).  swarm : dict of (S,) arrays (mean_payoff, the mission's
     metrics, mean_hops, max_hops, components, oscillation).  links : list of (E, 2) 1-hop
@@ -109,7 +109,7 @@ class StageLog:
     """
 
     times: np.ndarray
-    positions: np.ndarray
+    states: np.ndarray
     actions: np.ndarray
     per_robot: dict[str, np.ndarray]
     swarm: dict[str, np.ndarray]
@@ -211,7 +211,7 @@ def run_stages(
     s = len(times)
     return StageLog(
         times=np.asarray(times, dtype=float),
-        positions=np.stack(traj[: s + 1]),
+        states=np.stack(traj[: s + 1]),
         actions=np.stack(acts) if acts else np.zeros((0, n), dtype=np.int64),
         per_robot={k: np.stack(v) for k, v in per_robot.items()},
         swarm={k: np.asarray(v) for k, v in swarm.items()},

@@ -22,7 +22,7 @@ __all__ = [
 def _trajectory(log) -> pd.DataFrame:
     s, n = log.actions.shape
     t_all = np.append(log.times, log.times[-1] + log.period_s if s else log.warmup_s)
-    pos = log.positions  # (S + 1, N, 3)
+    pos = log.states  # (S + 1, N, D)
     act = np.vstack([log.actions, np.full((1, n), -1)])  # no action after the last stage
     return pd.DataFrame(
         {
@@ -60,7 +60,7 @@ def summarise(log, config, mission, wall_s: float) -> dict[str, Any]:
     s, n = log.actions.shape
     # A robot moves in a stage when its position changes (the action set may have several
     # actions that keep it in place, or none: a coasting UAV still moves).
-    disp = np.linalg.norm(np.diff(log.positions[..., :3], axis=0), axis=-1)  # (S, N)
+    disp = np.linalg.norm(np.diff(log.states[..., :3], axis=0), axis=-1)  # (S, N)
     moving = disp > 1e-6
     any_moving = moving.any(axis=1)
     still_from = s - int(np.argmax(any_moving[::-1])) if any_moving.any() else 0
