@@ -289,3 +289,78 @@ def test_game_layer_imports_without_the_network_config_or_pandas():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+PLUGIN = '''
+import numpy as np
+from pydantic import Field
+
+from swarmgames.game import FunctionPotentials
+from swarmgames.missions import HeadingActions, MissionEntry, TakeOff
+from swarmgames.section import Section
+
+
+class HoverConfig(Section):
+    """Hover where you took off."""
+
+    weight: float = Field(1.0, gt=0, description="Weight of the distance to home, per metre.")
+
+
+class Hover:
+    name, state_dim = "hover", 3
+
+    def __init__(self, config):
+        self.action_model = HeadingActions(config.swarm.step_m, config.swarm.n_headings)
+        w = config.mission.weight
+        self.potentials = FunctionPotentials(lambda s: -w * np.linalg.norm(s[..., :2], axis=-1))
+        self.takeoff = TakeOff.of(config.swarm)
+
+    def initial_states(self, n, rng):
+        return self.takeoff.states(n, rng)
+
+    def swarm_metrics(self, states, previous):
+        return {"home_distance_m": float(np.linalg.norm(states[:, :2], axis=1).mean())}
+
+
+ENTRY = MissionEntry("hover", HoverConfig, Hover, "hover at home")
+'''
+
+
+def test_an_installed_plugin_is_found_by_every_command(tmp_path):
+    # A real installed distribution, not a mock: a module and its .dist-info with an
+    # entry_points.txt on the path, discovered by importlib.metadata in a fresh process.
+    (tmp_path / "swarm_hover.py").write_text(PLUGIN)
+    info = tmp_path / "swarm_hover-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: swarm-hover\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text(f"[{ENTRY_POINT_GROUP}]\nhover = swarm_hover:ENTRY\n")
+    scenario = tmp_path / "hover.toml"
+    scenario.write_text(
+        'name = "hover"\nscenario = "hover"\n[swarm]\nn_robots = 3\nstart_center_m = [100.0, 0.0]'
+        "\n[sim]\nduration_s = 6.0\nanimation = false\n[hover]\nweight = 2.0\n"
+    )
+    env = {**__import__("os").environ, "PYTHONPATH": str(tmp_path)}
+
+    def cli(*args):
+        return subprocess.run(
+            [sys.executable, "-m", "swarmgames", *args],
+            capture_output=True,
+            text=True,
+            env=env,
+            cwd=tmp_path,
+            timeout=300,
+        )
+
+    listed = cli("missions", "list")
+    assert listed.returncode == 0 and "hover" in listed.stdout, listed.stderr
+    assert cli("missions", "check", "hover").returncode == 0
+    bad = tmp_path / "bad.toml"
+    bad.write_text('scenario = "hover"\n[hover]\nweight = -1.0\n')
+    checked = cli("config", "check", str(bad))
+    assert checked.returncode == 2 and "hover.weight: must be > 0" in checked.stderr
+    ran = cli("run", str(scenario), "--out", str(tmp_path / "out"), "--no-progress")
+    assert ran.returncode == 0, ran.stderr
+    swarm = (tmp_path / "out" / "swarm.csv").read_text().splitlines()
+    assert "home_distance_m" in swarm[0]
+    first, last = (float(r.split(",")[2]) for r in (swarm[1], swarm[-1]))
+    assert last < first
