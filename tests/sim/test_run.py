@@ -316,3 +316,9 @@ def test_twenty_robots_reach_consensus():
     assert s["settled_at_s"] is not None
     assert s["median_local_regret"] == 0.0
     assert s["coverage_end_dbm"] > -92.0  # -92.28 dBm with the unary penalty, not settled
+
+
+def test_lloyd_needs_a_mission_with_a_density():
+    cfg = parse_config({"name": "r", "scenario": "rendezvous", "sim": {"controller": "lloyd"}})
+    with pytest.raises(ConfigError, match="needs a mission with a density"):
+        run(cfg, progress=False, provider=DiskOracle())

@@ -271,11 +271,14 @@ class SimConfig(_Section):
     global_regret: bool = Field(
         True,
         description=(
-            "Measure every robot's stage-game regret (metrics.csv global_regret); with virtual "
-            "means on it costs a second payoff evaluation per stage."
+            "Measure every robot's stage-game regret (metrics.csv global_regret), from the "
+            "solved games' tables; with virtual means on, the games that held a virtual mean "
+            "are evaluated a second time with actual states."
         ),
     )
-    animation: bool = Field(True, description="Write animation.gif of the swarm over the ROI.")
+    animation: bool = Field(
+        True, description="Write animation.gif of the swarm over the mission's background."
+    )
     animation_frames: int = Field(
         60, ge=2, le=1000, description="Maximum number of frames of the animation."
     )

@@ -49,7 +49,7 @@ POLARISED = 0.9
 
 
 class FlockingConfig(Section):
-    """The ``[flocking]`` table: weights of the flocking potentials and the metrics' distances.
+    """The [flocking] table: weights of the flocking potentials and the metrics' distances.
 
     Defaults where the authors' controller is silent: a goal velocity of 0.5 m/s along +x
     (half the 1 m/s speed limit, so a robot can still speed up or slow down to rejoin the

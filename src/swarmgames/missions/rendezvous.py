@@ -72,7 +72,7 @@ __all__ = ["ENTRY", "RendezvousConfig", "RendezvousMission", "RendezvousPotentia
 
 
 class RendezvousConfig(Section):
-    """The ``[rendezvous]`` section: meet at a goal point while keeping every radio link.
+    """The [rendezvous] section: meet at a goal point while keeping every radio link.
 
     Defaults where nothing else decides: the goal 600 m from the default take-off disc; a 3 dB
     margin (under Friis a link is then kept at most 261 m long instead of 368.84 m, so it

@@ -31,12 +31,12 @@ def render_gif(result, max_frames: int = 60, fps: int = 8) -> bytes:
     if s == 0:
         raise ValueError("cannot animate a run without stages")
     idx = np.unique(np.linspace(0, s - 1, min(max_frames, s)).round().astype(int))
-    pad = 50.0
     lo, hi = xy.reshape(-1, 2).min(axis=0), xy.reshape(-1, 2).max(axis=0)
     extent = getattr(result.mission, "extent", None)
     if extent is not None:  # keep the mission's area in view too
         box = np.asarray(extent(), dtype=float)
         lo, hi = np.minimum(lo, box[::2]), np.maximum(hi, box[1::2])
+    pad = max(0.05 * float(np.max(hi - lo)), 1.0)  # metres around what the frames show
     fig = Figure(figsize=(5, 5), dpi=80)
     canvas = FigureCanvasAgg(fig)
     ax = fig.add_subplot()
