@@ -59,7 +59,8 @@ class Potentials(Protocol):
 
     Optional cheaper form: a method ``pair_table(batch, dtype) -> (B, K, A, K, A)`` returning
     the symmetrised table ``φ_p(k, a, l, c) + φ_p(l, c, k, a)`` directly in the solver's
-    layout (in ``dtype``), as a new array that the engine may overwrite. When present (and
+    layout (in ``dtype``), as a new array that the engine may overwrite, or ``None`` when
+    there is no pairwise term. When present (and
     the batch has no ``pair_mask``), :func:`evaluate_payoffs` uses it instead of
     ``pairwise``: no ``(B, K, K, A, A)`` table, no transposed copies, half the peak memory.
     """
@@ -307,11 +308,14 @@ def _check_pair_finite(
         )
 
 
-def _symmetric_table(batch: LocalGameBatch, table_fn, alpha_b: float, dtype) -> np.ndarray:
+def _symmetric_table(batch: LocalGameBatch, table_fn, alpha_b: float, dtype) -> np.ndarray | None:
     """``α_b`` times the table ``table_fn(batch, dtype)`` returns, already symmetrised and in
     the solver's layout ``(B, K, A, K, A)``; 0 outside the valid entries."""
     b, k, a = batch.n_games, batch.n_vars, batch.n_actions
-    w = np.asarray(table_fn(batch, dtype))
+    w = table_fn(batch, dtype)
+    if w is None:  # no pairwise term in this batch
+        return None
+    w = np.asarray(w)
     if w.shape != (b, k, a, k, a):
         raise ValueError(f"pair_table must have shape {(b, k, a, k, a)} (got {w.shape})")
     amask = batch.action_mask

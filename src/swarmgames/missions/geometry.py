@@ -1,9 +1,10 @@
-"""Swarm geometry that several missions measure: radio links by distance, their components,
-close pairs.
+"""Swarm geometry that several missions use: radio links by distance, their components,
+close pairs, and the crowding penalty of two next positions.
 
-Every function takes positions ``(N, >= 2)`` (only x, y, z are used, when present) and finds
-the pairs it needs with a KD-tree (:class:`scipy.spatial.cKDTree`), so the cost grows with the
-number of close pairs, not with N².
+The swarm-level functions take positions ``(N, >= 2)`` (only x, y, z are used, when present)
+and find the pairs they need with a KD-tree (:class:`scipy.spatial.cKDTree`), so the cost grows
+with the number of close pairs, not with N². :func:`crowding_blocks` works on a batch of local
+games and computes only the pairs of variables that can come close.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from scipy.sparse import coo_array
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-__all__ = ["close_pairs", "link_components", "link_pairs"]
+__all__ = ["close_pairs", "crowding_blocks", "link_components", "link_pairs"]
 
 
 def _xyz(positions) -> np.ndarray:
@@ -72,3 +73,43 @@ def close_pairs(positions, distance_m: float) -> int:
         return 0
     d = np.linalg.norm(pos[pairs[:, 0]] - pos[pairs[:, 1]], axis=1)
     return int(np.count_nonzero(d < distance_m))
+
+
+def crowding_blocks(batch, distance_m: float):
+    """The crowding penalty :math:`\\max(0, 1 - \\lVert p_k(a) - p_l(c) \\rVert / d)^2` of
+    every pair of distinct valid variables of a game that can come within ``d`` of each
+    other, for every pair of their actions.
+
+    Only pairs whose current positions are closer than :math:`d + 2 s` (``s`` the longest
+    move of the batch) can be penalised, so only their ``(A, A)`` blocks are computed: the
+    cost grows with the number of close pairs, not with K².
+
+    Parameters
+    ----------
+    batch : LocalGameBatch
+        Uses ``mask``, ``states``, ``next_states`` and ``action_mask``; positions are the
+        first three state columns.
+    distance_m : float
+        d, the distance below which next positions are penalised, metres (> 0).
+
+    Returns
+    -------
+    games, first, second : ndarray of int, shape (P,)
+        Each pair as (game, variable k, variable l); both orders of a pair are listed.
+    penalty : ndarray, shape (P, A, A)
+        ``penalty[p, a, c]`` for k taking a and l taking c, in [0, 1]; values at invalid
+        actions are meaningless.
+    """
+    mask = np.asarray(batch.mask, dtype=bool)
+    states = np.asarray(batch.states, dtype=float)[..., :3]
+    nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+    k = mask.shape[1]
+    amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+    disp = np.linalg.norm(nxt - states[:, :, None, :], axis=-1)
+    s_max = float(disp[amask].max(initial=0.0))
+    gb, gk, gl = np.nonzero(mask[:, :, None] & mask[:, None, :] & ~np.eye(k, dtype=bool))
+    gap = np.linalg.norm(states[gb, gk] - states[gb, gl], axis=-1)
+    near = gap < distance_m + 2.0 * s_max + 1e-9
+    gb, gk, gl = gb[near], gk[near], gl[near]
+    d = np.linalg.norm(nxt[gb, gk][:, :, None, :] - nxt[gb, gl][:, None, :, :], axis=-1)
+    return gb, gk, gl, np.maximum(0.0, 1.0 - d / distance_m) ** 2

@@ -77,6 +77,7 @@ import numpy as np
 from swarmgames.missions.coverage.roi import GaussianROI
 from swarmgames.missions.coverage.signal import SignalModel
 from swarmgames.missions.coverage.window import RoiRaster, floor_distance_sq, windowed_unary
+from swarmgames.missions.geometry import crowding_blocks
 
 __all__ = ["CoveragePotentials"]
 
@@ -314,21 +315,10 @@ class CoveragePotentials:
 
         Only variable pairs closer than :math:`d_{sep} + 2 s` (``s`` the longest move) can be
         penalised, so the (A, A) blocks of those pairs only are computed."""
-        mask = np.asarray(batch.mask, dtype=bool)
-        states = np.asarray(batch.states, dtype=float)[..., :3]
-        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
-        B, K, A = nxt.shape[:3]
-        amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
-        disp = np.linalg.norm(nxt - states[:, :, None, :], axis=-1)
-        s_max = float(disp[amask].max(initial=0.0))
-        gb, gk, gl = np.nonzero(mask[:, :, None] & mask[:, None, :] & ~np.eye(K, dtype=bool))
-        gap = np.linalg.norm(states[gb, gk] - states[gb, gl], axis=-1)
-        near = gap < self.separation_m + 2.0 * s_max + 1e-9
-        gb, gk, gl = gb[near], gk[near], gl[near]
+        gb, gk, gl, pen = crowding_blocks(batch, self.separation_m)  # pen: (P, A, A)
         if gb.size == 0:
             return
-        d = np.linalg.norm(nxt[gb, gk][:, :, None, :] - nxt[gb, gl][:, None, :, :], axis=-1)
-        pen = np.maximum(0.0, 1.0 - d / self.separation_m) ** 2  # (P, A, A)
+        B, K, A = np.asarray(batch.action_mask).shape
         scale = 2.0 * self.separation_cost_db * self.roi.mass / self.alpha_b
         out.reshape(B, K, A, K, A)[gb, gk, :, gl, :] -= (scale * pen).astype(out.dtype)
 
