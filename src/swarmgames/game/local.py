@@ -26,6 +26,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -36,6 +37,7 @@ from swarmgames.game.virtual import neighbourhood_means, reaches_outside
 from swarmgames.topology import TopologySnapshot
 
 __all__ = [
+    "Inbox",
     "LocalView",
     "LocalViews",
     "Messages",
@@ -47,6 +49,25 @@ __all__ = [
     "local_games",
     "receive",
 ]
+
+
+@runtime_checkable
+class Inbox(Protocol):
+    """What the robots of a stage know of their neighbourhoods; the local games are built from
+    this and nothing else.
+
+    :class:`Messages` is the exact, instant inbox; :mod:`swarmgames.comms` builds inboxes from
+    what a communication model delivered (late, lost, stale).
+    """
+
+    @property
+    def sizes(self) -> np.ndarray:
+        """|N_i| of the local game each robot would build (owner included), shape (N,)."""
+        ...
+
+    def views(self, owners=None) -> LocalViews:
+        """The inboxes of ``owners`` (default: every robot), padded."""
+        ...
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,6 +97,16 @@ class Messages:
     def neighbourhood(self, j: int) -> np.ndarray:
         """N_j as robot j reported it."""
         return self.indices[self.indptr[j] : self.indptr[j + 1]]
+
+    @property
+    def sizes(self) -> np.ndarray:
+        """|N_i| of every robot's local game (owner included), shape (N,)."""
+        return np.diff(self.indptr)
+
+    def views(self, owners=None) -> LocalViews:
+        """The inboxes of ``owners`` (:func:`gather_views`): every member's exact message,
+        delivered instantly (the ``ideal`` delivery of :mod:`swarmgames.comms`)."""
+        return gather_views(self, owners)
 
 
 def _validate_states(states, n: int) -> np.ndarray:

@@ -36,11 +36,11 @@ from swarmgames.game.actions import ActionModel
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.equilibrium import global_regret, local_regret, profile_payoff
 from swarmgames.game.local import (
+    Inbox,
     Messages,
     broadcast,
     build_local_games,
     centralised_game,
-    gather_views,
     local_games,
 )
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
@@ -200,12 +200,12 @@ def plan_stage(
     broadcast`) and the robots split into batches of similar neighbourhood size
     (:func:`size_groups`)."""
     messages = broadcast(snapshot, h, states)
-    return messages, size_groups(np.diff(messages.indptr), _check_buckets(buckets), n_actions)
+    return messages, size_groups(messages.sizes, _check_buckets(buckets), n_actions)
 
 
 def evaluate_games(
     solver: Solver,
-    messages: Messages,
+    inbox: Inbox,
     owners,
     action_model: ActionModel,
     potentials: Potentials,
@@ -213,12 +213,12 @@ def evaluate_games(
     virtual_mean: bool,
 ) -> tuple[LocalGameBatch, GamePayoffs, float, float]:
     """The second step, for one batch: the local games of ``owners`` built from their inboxes
-    and their payoff tables under ``solver``'s weights; with the build and the evaluation
-    (payoff integration) times, seconds."""
+    (``inbox.views(owners)``: :class:`~swarmgames.game.local.Messages` for exact, instant
+    delivery, or what a communication model delivered) and their payoff tables under
+    ``solver``'s weights; with the build and the evaluation (payoff integration) times,
+    seconds."""
     t0 = time.perf_counter()
-    batch = build_local_games(
-        gather_views(messages, owners), action_model, virtual_mean=virtual_mean
-    )
+    batch = build_local_games(inbox.views(owners), action_model, virtual_mean=virtual_mean)
     t1 = time.perf_counter()
     pay = solver.evaluate(batch, potentials)
     return batch, pay, t1 - t0, time.perf_counter() - t1
@@ -254,6 +254,7 @@ def solve_stage(
     buckets: int = 0,
     global_regret: bool = True,
     keep_games: bool = False,
+    inbox: Inbox | None = None,
 ) -> StageSolution:
     """Decide and measure every robot's action for one control period.
 
@@ -286,6 +287,11 @@ def solve_stage(
         Measure every robot's global regret (NaN otherwise).
     keep_games : bool, default False
         Return the games and their solution (``batch``, ``solution``) in robot order.
+    inbox : Inbox, optional
+        What every robot knows of its neighbourhood (``sizes`` and ``views(owners)``, for
+        example the belief tables of :mod:`swarmgames.comms`); default: every member's exact
+        state, delivered instantly (:func:`~swarmgames.game.local.broadcast` of ``states``).
+        The measurements (global regret) always use the true games.
 
     Returns
     -------
@@ -311,14 +317,16 @@ def solve_stage(
             solver, snapshot, h, states, action_model, potentials, gen, buckets, keep_games
         )
     t0 = time.perf_counter()
-    messages, groups = plan_stage(snapshot, h, states, int(action_model.n_actions), buckets)
+    messages = broadcast(snapshot, h, states)
+    source = messages if inbox is None else inbox
+    groups = size_groups(source.sizes, _check_buckets(buckets), int(action_model.n_actions))
     build_s = time.perf_counter() - t0
     rec = _Record(n)
     integrate_s = solve_s = 0.0
     batches, sols = [], []
     for owners in groups:
         batch, pay, t_build, t_int = evaluate_games(
-            solver, messages, owners, action_model, potentials, virtual_mean=virtual_mean
+            solver, source, owners, action_model, potentials, virtual_mean=virtual_mean
         )
         sol = solver.solve_payoffs(pay, gen)
         rec.actions[owners] = sol.actions
@@ -334,7 +342,8 @@ def solve_stage(
         if keep_games:
             sols.append((batch, sol))
     if global_regret:
-        _global_regret(rec, solver, messages, batches, action_model, potentials)
+        exact = source is messages
+        _global_regret(rec, solver, messages, batches, action_model, potentials, exact)
     extra = {}
     if keep_games:
         extra = _in_robot_order(groups, sols)
@@ -349,10 +358,19 @@ def solve_stage(
     )
 
 
-def _global_regret(rec: _Record, solver, messages, batches, action_model, potentials) -> None:
-    """Global regret from the solved games' tables; only the games that held a virtual mean
-    are rebuilt with actual states and evaluated again."""
+def _global_regret(
+    rec: _Record, solver, messages, batches, action_model, potentials, exact: bool
+) -> None:
+    """Global regret from the solved games' tables where they are the true games (exact
+    delivery, no virtual mean); the other games are rebuilt with actual states and true
+    neighbourhoods and evaluated again."""
     for owners, batch, pay in batches:
+        if not exact:
+            _, true_pay, _, _ = evaluate_games(
+                solver, messages, owners, action_model, potentials, virtual_mean=False
+            )
+            rec.global_regret[owners] = global_regret(true_pay, rec.actions)
+            continue
         rec.global_regret[owners] = global_regret(pay, rec.actions)
         virtual = np.asarray(batch.is_virtual).any(axis=1)
         if virtual.any():
