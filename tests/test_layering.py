@@ -28,9 +28,11 @@ BASE = (
 MAY_IMPORT = {
     "swarmgames.network": (),
     "swarmgames.game": (),
+    "swarmgames.comms": ("swarmgames.game", "swarmgames.network"),
     "swarmgames.missions": ("swarmgames.game", "swarmgames.network"),
     "swarmgames.config": ("swarmgames.missions", "swarmgames.game", "swarmgames.network"),
     "swarmgames.sim": (
+        "swarmgames.comms",
         "swarmgames.config",
         "swarmgames.missions",
         "swarmgames.game",

@@ -9,7 +9,7 @@ schema does not load the layers.
 
 from __future__ import annotations
 
-__all__ = ["BACKENDS", "ENGINES", "GAME_SOLVERS", "SOLVERS"]
+__all__ = ["BACKENDS", "COMMS_MODELS", "ENGINES", "GAME_SOLVERS", "SOLVERS"]
 
 #: Network providers (``network.backend``).
 BACKENDS = ("olsr", "oracle", "disk", "knn", "ns3")
@@ -23,3 +23,6 @@ GAME_SOLVERS = (*SOLVERS, "centralised")
 
 #: Mean-field engines (``game.engine``).
 ENGINES = ("auto", "compiled", "blas", "sequential")
+
+#: Communication models (``comms.model``).
+COMMS_MODELS = ("ideal", "routed")

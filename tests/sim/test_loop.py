@@ -90,11 +90,11 @@ class _Interrupting:
     def __init__(self, inner, at):
         self.inner, self.at, self.calls = inner, at, 0
 
-    def decide(self, *args):
+    def decide(self, *args, **kwargs):
         self.calls += 1
         if self.calls > self.at:
             raise KeyboardInterrupt
-        return self.inner.decide(*args)
+        return self.inner.decide(*args, **kwargs)
 
 
 def test_ctrl_c_keeps_completed_stages():
@@ -192,7 +192,7 @@ def test_two_cycle_swarm_reports_full_oscillation():
     # Two robots that swap between two points every stage: every stage after the first has
     # every robot back at its position of two stages before.
     class Swap:
-        def decide(self, snap, states, rng):
+        def decide(self, snap, states, rng, inbox=None):
             from swarmgames.game.stage import StageSolution
 
             n = states.shape[0]

@@ -9,6 +9,7 @@ import pytest
 
 from swarmgames.config import ScenarioConfig, parse_config
 from swarmgames.errors import ConfigError, RunFolderError
+from swarmgames.missions.protocol import COMMS_COLUMNS
 from swarmgames.runfolder import RunFolder
 from swarmgames.sim import build_mission, run
 from swarmgames.sim.controllers import GameController
@@ -25,6 +26,8 @@ SWARM_COLUMNS = [
     "max_hops",
     "components",
     "oscillation",
+    "mean_info_age_s",
+    "bytes_per_robot",
 ]
 
 
@@ -60,7 +63,7 @@ def test_default_run_meets_acceptance(default_run):
 
 def test_tables_have_documented_columns(default_run):
     assert list(default_run.to_frame("trajectory").columns) == TRAJECTORY_COLUMNS
-    assert list(default_run.to_frame("metrics").columns) == METRICS_COLUMNS
+    assert list(default_run.to_frame("metrics").columns) == METRICS_COLUMNS + COMMS_COLUMNS
     assert list(default_run.to_frame("swarm").columns) == SWARM_COLUMNS
     with pytest.raises(ValueError, match="table must be one of"):
         default_run.to_frame("nope")

@@ -14,6 +14,7 @@ from swarmgames.config.io import (
 )
 from swarmgames.config.scaling import scaled_config
 from swarmgames.config.schema import (
+    CommsConfig,
     GameConfig,
     NetworkConfig,
     OlsrConfig,
@@ -24,6 +25,7 @@ from swarmgames.config.schema import (
 )
 
 __all__ = [
+    "CommsConfig",
     "GameConfig",
     "NetworkConfig",
     "OlsrConfig",

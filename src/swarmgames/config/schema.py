@@ -29,10 +29,11 @@ from typing import Any, Literal
 
 from pydantic import Field, SerializeAsAny, field_validator, model_validator
 
-from swarmgames.names import BACKENDS, ENGINES, GAME_SOLVERS
+from swarmgames.names import BACKENDS, COMMS_MODELS, ENGINES, GAME_SOLVERS
 from swarmgames.section import Section
 
 __all__ = [
+    "CommsConfig",
     "GameConfig",
     "NetworkConfig",
     "OlsrConfig",
@@ -133,6 +134,47 @@ class NetworkConfig(_Section):
     knn_k: int = Field(4, ge=1, description="Number of neighbours of the 'knn' baseline.")
     radio: RadioConfig = Field(default_factory=RadioConfig)
     olsr: OlsrConfig = Field(default_factory=OlsrConfig)
+
+
+class CommsConfig(_Section):
+    """How state messages reach the robots (the communication layer, docs/comms.md)."""
+
+    model: Literal[COMMS_MODELS] = Field(
+        "ideal",
+        description=(
+            "'ideal': every member of N_i(h) gets the exact state instantly and for free; "
+            "'routed': messages flooded hop by hop over the links that exist now, with delay "
+            "and loss, into belief tables."
+        ),
+    )
+    hop_delay_s: float = Field(
+        0.002,
+        ge=0,
+        le=1.0,
+        description="Delay of each hop besides the frame's airtime (channel access), seconds.",
+    )
+    rate_mbps: float = Field(
+        6.0, gt=0, le=1000.0, description="PHY rate of the state messages, Mbit/s."
+    )
+    decide_after_s: float = Field(
+        0.1,
+        ge=0,
+        description=(
+            "The robots decide this long after the stage time; later messages wait for the "
+            "next decision, seconds."
+        ),
+    )
+    loss_rate: float = Field(
+        0.0, ge=0, le=1, description="Probability that one transmission is lost (i.i.d.)."
+    )
+    max_age_s: float = Field(
+        3.0, gt=0, description="States older than this are dropped from the games, seconds."
+    )
+    dead_reckoning: bool = Field(
+        False,
+        description="Advance reported positions by reported velocities over their age "
+        "(acceleration action set only).",
+    )
 
 
 class GameConfig(_Section):
@@ -321,6 +363,7 @@ class ScenarioConfig(_Section):
     network: NetworkConfig = Field(default_factory=NetworkConfig)
     game: GameConfig = Field(default_factory=GameConfig)
     sim: SimConfig = Field(default_factory=SimConfig)
+    comms: CommsConfig = Field(default_factory=CommsConfig)
     mission: SerializeAsAny[Section] = Field(
         default=None, description="The mission's own section (the table named by scenario)."
     )
@@ -367,6 +410,11 @@ class ScenarioConfig(_Section):
             raise ValueError(
                 "sim.duration_s must be >= sim.control_period_s "
                 f"(got {sim.duration_s} < {sim.control_period_s})"
+            )
+        if self.comms.model == "routed" and self.comms.decide_after_s >= sim.control_period_s:
+            raise ValueError(
+                "comms.decide_after_s must be < sim.control_period_s (a robot decides within "
+                f"its period) (got {self.comms.decide_after_s} >= {sim.control_period_s})"
             )
         if self.game.solver == "centralised" and sim.controller == "game" and sw.n_robots > 300:
             raise ValueError(

@@ -47,6 +47,7 @@ __all__ = [
     "centralised_game",
     "gather_views",
     "local_games",
+    "pad_rows",
     "receive",
 ]
 
@@ -215,9 +216,15 @@ class LocalViews:
     neighbourhoods: np.ndarray
 
 
-def _pad_rows(indptr: np.ndarray, indices: np.ndarray, rows: np.ndarray) -> np.ndarray:
+def pad_rows(indptr: np.ndarray, indices: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """CSR rows ``rows`` (any shape) as a ``rows.shape + (L,)`` array, -1 padded; -1 rows are
-    empty."""
+    empty (L = the longest row asked for, at least 1).
+
+    Examples
+    --------
+    >>> pad_rows(np.array([0, 2, 3]), np.array([5, 6, 7]), np.array([1, 0])).tolist()
+    [[7, -1], [5, 6]]
+    """
     flat = rows.ravel()
     ok = flat >= 0
     safe = np.where(ok, flat, 0)
@@ -241,7 +248,7 @@ def gather_views(messages: Messages, owners=None) -> LocalViews:
     owners = np.arange(n) if owners is None else np.asarray(owners, dtype=np.int64).reshape(-1)
     if owners.size and (owners.min() < 0 or owners.max() >= n):
         raise ValueError(f"owners must be in [0, {n}) (got {owners.min()}..{owners.max()})")
-    rows = _pad_rows(messages.indptr, messages.indices, owners)  # (B, K), sorted, owner inside
+    rows = pad_rows(messages.indptr, messages.indices, owners)  # (B, K), sorted, owner inside
     mask = rows >= 0
     # Owner first, the rest in increasing id (stable sort on "is not the owner").
     key = (~mask).astype(np.int8) + (rows != owners[:, None])
@@ -256,7 +263,7 @@ def gather_views(messages: Messages, owners=None) -> LocalViews:
         mask=frozen(mask),
         states=frozen(np.where(zero, 0.0, messages.state[safe])),
         mean_states=frozen(np.where(zero, 0.0, messages.mean_state[safe])),
-        neighbourhoods=frozen(_pad_rows(messages.indptr, messages.indices, members)),
+        neighbourhoods=frozen(pad_rows(messages.indptr, messages.indices, members)),
     )
 
 

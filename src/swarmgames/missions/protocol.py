@@ -37,6 +37,7 @@ from swarmgames.game.actions import ActionModel
 from swarmgames.game.potentials import Potentials
 
 __all__ = [
+    "COMMS_COLUMNS",
     "METRICS_COLUMNS",
     "NETWORK_COLUMNS",
     "OPTIONAL_HOOKS",
@@ -63,8 +64,28 @@ METRICS_COLUMNS = [
     "integrate_ms",
 ]
 SWARM_HEAD = ["t", "mean_payoff"]
-NETWORK_COLUMNS = ["mean_hops", "max_hops", "components", "oscillation"]
-RESERVED_COLUMNS = frozenset([*TRAJECTORY_COLUMNS, *METRICS_COLUMNS, *SWARM_HEAD, *NETWORK_COLUMNS])
+NETWORK_COLUMNS = [
+    "mean_hops",
+    "max_hops",
+    "components",
+    "oscillation",
+    "mean_info_age_s",
+    "bytes_per_robot",
+]
+#: Per-robot columns of the communication layer (metrics.csv, after METRICS_COLUMNS).
+COMMS_COLUMNS = [
+    "info_age_s",
+    "fresh_fraction",
+    "messages_sent",
+    "messages_forwarded",
+    "messages_received",
+    "bytes_sent",
+    "bytes_forwarded",
+    "bytes_received",
+]
+RESERVED_COLUMNS = frozenset(
+    [*TRAJECTORY_COLUMNS, *METRICS_COLUMNS, *COMMS_COLUMNS, *SWARM_HEAD, *NETWORK_COLUMNS]
+)
 
 #: Optional methods and attributes of a mission (see the module docstring).
 OPTIONAL_HOOKS = ("robot_metrics", "summary", "draw", "extent", "density")

@@ -81,8 +81,9 @@ class GameController(_Controller):
         self.centralised = config.game.solver == "centralised"
         self.global_regret = bool(config.sim.global_regret)
 
-    def decide(self, snapshot, states, rng) -> StageSolution:
-        """Every robot's action at ``states`` with the tables of ``snapshot``."""
+    def decide(self, snapshot, states, rng, inbox=None) -> StageSolution:
+        """Every robot's action at ``states`` with the tables of ``snapshot``, each local game
+        built from ``inbox`` (what the robots know; default: exact, instant delivery)."""
         m = self.mission
         try:
             return solve_stage(
@@ -97,6 +98,7 @@ class GameController(_Controller):
                 centralised=self.centralised,
                 buckets=self.buckets,
                 global_regret=self.global_regret,
+                inbox=inbox,
             )
         except ValueError as exc:
             if self.solver_name != "exact":
@@ -125,8 +127,9 @@ class LloydController(_Controller):
                 f"{getattr(mission, 'name', config.scenario)!r} has none"
             )
 
-    def decide(self, snapshot, states, rng) -> StageSolution:
-        """Each robot's move toward its Voronoi centroid, and its measures."""
+    def decide(self, snapshot, states, rng, inbox=None) -> StageSolution:
+        """Each robot's move toward its Voronoi centroid (from every true position: the
+        baseline is centralised, ``inbox`` is unused), and its measures."""
         m = self.mission
         n = states.shape[0]
         t0 = time.perf_counter()

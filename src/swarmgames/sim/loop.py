@@ -136,6 +136,12 @@ def _robot_columns(stage, n: int) -> dict[str, np.ndarray]:
     }
 
 
+def _nanmean(values: np.ndarray) -> float:
+    """Mean of the finite values (NaN when there are none)."""
+    ok = np.isfinite(values)
+    return float(values[ok].mean()) if ok.any() else float("nan")
+
+
 def run_stages(
     *,
     provider: Any,
@@ -147,6 +153,8 @@ def run_stages(
     warmup_s: float,
     rng: np.random.Generator,
     progress: Any = None,
+    comms: Any = None,
+    comms_rng: np.random.Generator | None = None,
 ) -> StageLog:
     """Run ``n_stages`` stages and return the :class:`StageLog`.
 
@@ -163,6 +171,11 @@ def run_stages(
         sees only those).
     progress : callable ``(done: int) -> None``, optional
         Called after every stage.
+    comms : IdealComms or RoutedComms, optional
+        The communication model (:mod:`swarmgames.comms`); default: ideal delivery. Its
+        per-robot measurements join ``per_robot``.
+    comms_rng : numpy.random.Generator, optional
+        The communication model's draws (losses, fading).
     """
     pos = np.array(states, dtype=float)
     n = pos.shape[0]
@@ -173,13 +186,19 @@ def run_stages(
     t_start = time.perf_counter()
     robot_metrics = getattr(mission, "robot_metrics", None)
     prev = None
+    if comms is None:
+        from swarmgames.comms import IdealComms
+
+        comms = IdealComms(getattr(controller, "hops", 1))
+    comms.reset()
     try:
         provider.reset(pos[:, :3], 0.0)
         snap = provider.advance(warmup_s, pos[:, :3])
         for k in range(n_stages):
             t_stage = time.perf_counter()
             t = warmup_s + k * period_s
-            dec = controller.decide(snap, pos, rng)
+            inbox, heard = comms.exchange(t, snap, pos, comms_rng)
+            dec = controller.decide(snap, pos, rng, inbox=inbox)
             mean_h, max_h, n_comp, edges = swarm_graph_stats(snap)
             measured = mission.swarm_metrics(pos, prev)
             extra = robot_metrics(pos) if robot_metrics is not None else {}
@@ -188,7 +207,7 @@ def run_stages(
             # A stage is recorded only once it is complete (Ctrl-C keeps whole stages).
             times.append(t)
             acts.append(np.asarray(dec.actions, dtype=np.int64))
-            for name, val in {**_robot_columns(dec, n), **extra}.items():
+            for name, val in {**_robot_columns(dec, n), **heard.columns(), **extra}.items():
                 per_robot.setdefault(name, []).append(np.asarray(val))
             row = {"mean_payoff": float(np.mean(dec.payoff)) if n else 0.0}
             row.update((name, float(v)) for name, v in measured.items())
@@ -197,6 +216,10 @@ def run_stages(
                 max_hops=max_h,
                 components=n_comp,
                 oscillation=oscillation(prev, pos, new_pos),
+                mean_info_age_s=_nanmean(heard.info_age_s),
+                bytes_per_robot=float(
+                    np.mean(heard.bytes_sent + heard.bytes_forwarded) if n else 0.0
+                ),
             )
             for name, val in row.items():
                 swarm.setdefault(name, []).append(val)

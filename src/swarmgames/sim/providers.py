@@ -1,8 +1,9 @@
-"""The configuration boundary of the network layer: a provider from a :class:`NetworkConfig`.
+"""The configuration boundary of the network and communication layers: a provider from a
+:class:`NetworkConfig`, a communication model from a :class:`CommsConfig`.
 
-The network layer takes plain parameters (:mod:`swarmgames.network.parameters`); this module
+The lower layers take plain parameters (:mod:`swarmgames.network.parameters`); this module
 turns the validated configuration into them, once, and builds the provider with
-:func:`~swarmgames.network.factory.make_provider`.
+:func:`~swarmgames.network.factory.make_provider` and the model of :mod:`swarmgames.comms`.
 """
 
 from __future__ import annotations
@@ -11,12 +12,14 @@ from typing import Any
 
 import numpy as np
 
+from swarmgames.comms import IdealComms, RoutedComms
 from swarmgames.config import NetworkConfig
 from swarmgames.network.factory import make_provider
 from swarmgames.network.parameters import OlsrParameters, RadioParameters
+from swarmgames.network.propagation import PropagationModel
 from swarmgames.network.provider import NeighbourhoodProvider
 
-__all__ = ["provider_from_config"]
+__all__ = ["comms_from_config", "provider_from_config"]
 
 
 def provider_from_config(
@@ -58,4 +61,37 @@ def provider_from_config(
         disk_radius_m=network.disk_radius_m,
         knn_k=network.knn_k,
         **kwargs,
+    )
+
+
+def comms_from_config(config, state_dim: int, provider: Any = None) -> IdealComms | RoutedComms:
+    """The communication model of a :class:`~swarmgames.config.ScenarioConfig`.
+
+    Parameters
+    ----------
+    config : ScenarioConfig
+        Uses ``comms``, ``network.hops``, ``network.radio`` and ``swarm.n_robots``.
+    state_dim : int
+        D, the number of state columns of the mission.
+    provider : NeighbourhoodProvider, optional
+        The run's network; a routed model uses its radio channel (``provider.model``, with
+        its static shadowing draws) so that the links messages travel are the provider's.
+    """
+    c, net = config.comms, config.network
+    if c.model == "ideal":
+        return IdealComms(net.hops)
+    channel = getattr(provider, "model", None)
+    if not isinstance(channel, PropagationModel):
+        channel = PropagationModel(RadioParameters(**net.radio.model_dump()))
+    return RoutedComms(
+        config.swarm.n_robots,
+        int(state_dim),
+        net.hops,
+        channel,
+        hop_delay_s=c.hop_delay_s,
+        rate_mbps=c.rate_mbps,
+        decide_after_s=c.decide_after_s,
+        loss_rate=c.loss_rate,
+        max_age_s=c.max_age_s,
+        dead_reckoning=c.dead_reckoning,
     )

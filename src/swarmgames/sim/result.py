@@ -54,6 +54,15 @@ def _swarm(log) -> pd.DataFrame:
     return pd.DataFrame(cols)
 
 
+def _finite_mean(values) -> float | None:
+    """Mean of the finite values, or None (no stage, or nothing finite)."""
+    if values is None:
+        return None
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    return float(v.mean()) if v.size else None
+
+
 def summarise(log, config, mission, wall_s: float) -> dict[str, Any]:
     """Headline numbers of a run (``summary.json``); the mission's own (its ``summary`` hook,
     if any) follow the payoff."""
@@ -104,6 +113,10 @@ def summarise(log, config, mission, wall_s: float) -> dict[str, Any]:
         "mean_hops_end": float(sw["mean_hops"][-1]) if s else None,
         "max_hops_end": int(sw["max_hops"][-1]) if s else None,
         "components_end": int(sw["components"][-1]) if s else None,
+        "comms": config.comms.model,
+        "mean_info_age_s": _finite_mean(pr.get("info_age_s")),
+        "mean_fresh_fraction": _finite_mean(pr.get("fresh_fraction")),
+        "bytes_per_robot_stage": _finite_mean(sw.get("bytes_per_robot")),
         "median_solve_ms": float(np.median(pr["solve_ms"])) if s else None,
         "median_integrate_ms": float(np.median(pr["integrate_ms"])) if s else None,
         "median_stage_ms": float(1e3 * np.median(log.stage_s)) if s else None,

@@ -102,14 +102,18 @@ def run(
     if out is not None and not isinstance(out, RunFolder):
         out = RunFolder(Path(out), force=force)
     t0 = time.perf_counter()
-    seeds = np.random.SeedSequence(config.seed).spawn(3)
-    rng_start, rng_net, rng_game = (np.random.default_rng(s) for s in seeds)
+    # Children 0-2 are those of runs before the communication layer (same draws).
+    seeds = np.random.SeedSequence(config.seed).spawn(4)
+    rng_start, rng_net, rng_game, rng_comms = (np.random.default_rng(s) for s in seeds)
     sw, sim = config.swarm, config.sim
     states = _initial_states(mission, sw.n_robots, rng_start)
     if provider is None:
         from swarmgames.sim.providers import provider_from_config
 
         provider = provider_from_config(config.network, sw.n_robots, rng_net)
+    from swarmgames.sim.providers import comms_from_config
+
+    comms = comms_from_config(config, states.shape[1], provider)
     controller = make_controller(config, mission)
     n_stages = max(1, int(np.floor(sim.duration_s / sim.control_period_s + 1e-9)))
     label = f"{config.name}: {sw.n_robots} robots, {config.network.backend}"
@@ -124,6 +128,8 @@ def run(
             warmup_s=sim.warmup_s,
             rng=rng_game,
             progress=tick,
+            comms=comms,
+            comms_rng=rng_comms,
         )
     result = RunResult.from_log(log, config, mission, time.perf_counter() - t0)
     if out is not None:

@@ -1,0 +1,195 @@
+"""Belief tables: what each robot last heard from each other robot, and how old it is.
+
+Every reception of a state message (:mod:`swarmgames.comms.flooding`) becomes an entry of the
+receiver's belief table: the sender, the time the message was sent (its timestamp), the time
+it arrived, and its content (state, N_j, S̄_j). A robot decides with the newest message it has
+*received by then* from each robot; a message older than ``max_age_s`` is dropped, and with it
+the robot, from the games it builds. The age of a state is the decision time minus the
+message's timestamp: it comes from when messages were sent and arrived, nothing else.
+
+:class:`BeliefInbox` is what the game layer builds local games from (the
+:class:`~swarmgames.game.local.Inbox` protocol): robot i's game holds i itself (its own state,
+exactly) and every member of its own N_i(h) whose state it holds fresh enough.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from swarmgames.arrays import freeze_fields
+from swarmgames.game.local import LocalViews, pad_rows
+
+__all__ = ["BeliefInbox", "BeliefTable"]
+
+
+@dataclass(frozen=True, eq=False)
+class BeliefTable:
+    """The belief entries of every robot, sorted by (owner, sender, timestamp).
+
+    Parameters
+    ----------
+    n_robots : int
+    owner, sender : ndarray of int64, shape (E,)
+    stamp, arrival : ndarray, shape (E,)
+        When the message was sent and when it arrived, seconds.
+    state, mean : ndarray, shape (E, D)
+        The sender's reported S_j and S̄_j.
+    nbh : ndarray of int32, shape (E, L)
+        The sender's reported N_j, -1 padded.
+    """
+
+    n_robots: int
+    owner: np.ndarray
+    sender: np.ndarray
+    stamp: np.ndarray
+    arrival: np.ndarray
+    state: np.ndarray
+    mean: np.ndarray
+    nbh: np.ndarray
+
+    def __post_init__(self) -> None:
+        freeze_fields(self)
+
+    @classmethod
+    def empty(cls, n_robots: int, state_dim: int) -> BeliefTable:
+        """No robot has heard anything yet."""
+        z = np.zeros(0, dtype=np.int64)
+        return cls(
+            n_robots,
+            z,
+            z,
+            np.zeros(0),
+            np.zeros(0),
+            np.zeros((0, state_dim)),
+            np.zeros((0, state_dim)),
+            np.full((0, 1), -1, dtype=np.int32),
+        )
+
+    @property
+    def n_entries(self) -> int:
+        """E."""
+        return int(self.owner.size)
+
+    def merge(self, new: BeliefTable, now: float, max_age_s: float) -> BeliefTable:
+        """This table with ``new``'s entries added, pruned at time ``now``: per (owner,
+        sender) only the newest message that has arrived is kept (and any still in flight);
+        messages older than ``max_age_s`` are dropped."""
+        width = max(self.nbh.shape[1], new.nbh.shape[1])
+
+        def padded(t: BeliefTable) -> np.ndarray:
+            extra = width - t.nbh.shape[1]
+            return np.pad(t.nbh, ((0, 0), (0, extra)), constant_values=-1) if extra else t.nbh
+
+        owner = np.concatenate([self.owner, new.owner])
+        sender = np.concatenate([self.sender, new.sender])
+        stamp = np.concatenate([self.stamp, new.stamp])
+        arrival = np.concatenate([self.arrival, new.arrival])
+        order = np.lexsort((stamp, sender, owner))
+        owner, sender, stamp, arrival = owner[order], sender[order], stamp[order], arrival[order]
+        keep = stamp >= now - max_age_s - 1e-9
+        arrived = arrival <= now + 1e-12
+        arrived_key = np.where(arrived, owner * self.n_robots + sender, -1)
+        # Sorted by (key, stamp): an arrived entry followed by another arrived entry of the
+        # same pair is superseded by it.
+        idx = np.flatnonzero(arrived)
+        superseded = np.zeros(owner.size, dtype=bool)
+        superseded[idx[:-1][arrived_key[idx[:-1]] == arrived_key[idx[1:]]]] = True
+        keep &= ~superseded
+        cat = {
+            "state": np.concatenate([self.state, new.state])[order][keep],
+            "mean": np.concatenate([self.mean, new.mean])[order][keep],
+            "nbh": np.concatenate([padded(self), padded(new)])[order][keep],
+        }
+        return BeliefTable(
+            self.n_robots,
+            owner[keep],
+            sender[keep],
+            stamp[keep],
+            arrival[keep],
+            cat["state"],
+            cat["mean"],
+            cat["nbh"],
+        )
+
+    def lookup(self, owner, sender, now: float, max_age_s: float) -> np.ndarray:
+        """Index of the entry each (owner, sender) pair uses at time ``now`` — the newest
+        message arrived by then, at most ``max_age_s`` old — or -1."""
+        owner = np.asarray(owner, dtype=np.int64)
+        sender = np.asarray(sender, dtype=np.int64)
+        usable = np.flatnonzero(
+            (self.arrival <= now + 1e-12) & (self.stamp >= now - max_age_s - 1e-9)
+        )
+        # Sorted by (owner, sender, stamp): the last usable entry of a pair is its newest.
+        keys = self.owner[usable] * self.n_robots + self.sender[usable]
+        want = owner * self.n_robots + sender
+        if keys.size == 0:
+            return np.full(want.shape, -1, dtype=np.int64)
+        pos = np.maximum(np.searchsorted(keys, want, side="right") - 1, 0)
+        return np.where(keys[pos] == want, usable[pos], -1)
+
+
+@dataclass(frozen=True, eq=False)
+class BeliefInbox:
+    """Every robot's inbox at one decision, from its belief table (an
+    :class:`~swarmgames.game.local.Inbox`).
+
+    Parameters
+    ----------
+    indptr : ndarray of int64, shape (N + 1,)
+        Row i holds the entries of robot i's game: i first, then the members it uses in
+        increasing id.
+    member : ndarray of int32, shape (E,)
+    state, mean : ndarray, shape (E, D)
+        The state used (i's own, exactly; the others' reported, dead-reckoned if asked) and
+        the reported S̄_j.
+    nbh : ndarray of int32, shape (E, L)
+        The reported N_j (i's own table row for i), -1 padded.
+    age : ndarray, shape (E,)
+        Age of each state at the decision, seconds (0 for the owner).
+    """
+
+    indptr: np.ndarray
+    member: np.ndarray
+    state: np.ndarray
+    mean: np.ndarray
+    nbh: np.ndarray
+    age: np.ndarray
+
+    def __post_init__(self) -> None:
+        freeze_fields(self)
+
+    @property
+    def sizes(self) -> np.ndarray:
+        """|N_i| of every robot's game as it knows it (owner included), shape (N,)."""
+        return np.diff(self.indptr)
+
+    def views(self, owners=None) -> LocalViews:
+        """The padded inboxes of ``owners`` (default: every robot)."""
+        n = self.indptr.size - 1
+        owners = np.arange(n) if owners is None else np.asarray(owners, dtype=np.int64)
+        entry = pad_rows(self.indptr, np.arange(self.member.size), owners.reshape(-1))
+        mask = entry >= 0
+        safe = np.where(mask, entry, 0)
+        zero = ~mask[:, :, None]
+        nbh = np.where(mask[:, :, None], self.nbh[safe], -1)
+        return LocalViews(
+            owner=owners.astype(np.int32),
+            members=np.where(mask, self.member[safe], -1).astype(np.int32),
+            mask=mask,
+            states=np.where(zero, 0.0, self.state[safe]),
+            mean_states=np.where(zero, 0.0, self.mean[safe]),
+            neighbourhoods=nbh.astype(np.int32),
+        )
+
+    def info_age(self) -> np.ndarray:
+        """Mean age of the others' states each robot uses, seconds, shape (N,); NaN for a
+        robot that uses none."""
+        n = self.indptr.size - 1
+        row = np.repeat(np.arange(n), np.diff(self.indptr))
+        others = self.member != row
+        total = np.bincount(row[others], weights=self.age[others], minlength=n)
+        count = np.bincount(row[others], minlength=n)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(count > 0, total / np.maximum(count, 1), np.nan)

@@ -1,0 +1,267 @@
+"""Communication models: what reaches each robot of a stage, when, and at what cost.
+
+Once per control period, at the stage time t, every robot composes its state message
+(:mod:`swarmgames.comms.wire`) and the model delivers it; the robots decide at
+``t + decide_after_s`` with what they hold by then.
+
+``ideal``
+    Every member of N_i(h) — robot i's own routing table — receives the exact message
+    instantly and for free: the local games of the paper, and the simulation before this
+    layer existed (it reproduces those runs bit for bit).
+``routed``
+    The message is flooded hop by hop for at most h hops over the links that exist now, both
+    physically (the radio model at the current positions) and in the forwarder's routing
+    table (:func:`~swarmgames.comms.flooding.flood`); each hop takes ``hop_delay_s`` plus the
+    frame's airtime at ``rate_mbps`` and loses the message with probability ``loss_rate``.
+    Each robot keeps a belief table of the newest message heard from each robot
+    (:class:`~swarmgames.comms.beliefs.BeliefTable`) and builds its local game from the
+    members of its own N_i(h) it heard from within ``max_age_s``; with ``dead_reckoning`` a
+    reported position is advanced by its reported velocity over the message's age. A robot's
+    S̄_j is the mean of the states it *knows* (its own and its fresh beliefs), and its N_j the
+    row of its own table.
+
+Both return the inbox the stage pipeline builds the games from and :class:`CommsStats`, the
+per-robot measurements of the stage (information age, freshness, messages and bytes).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from swarmgames.arrays import freeze_fields
+from swarmgames.comms.beliefs import BeliefInbox, BeliefTable
+from swarmgames.comms.flooding import flood
+from swarmgames.comms.wire import airtime_s, message_bytes
+from swarmgames.game.local import broadcast, pad_rows
+from swarmgames.names import COMMS_MODELS
+from swarmgames.network.links import link_graph
+from swarmgames.network.propagation import PropagationModel
+from swarmgames.topology import TopologySnapshot
+
+__all__ = ["COMMS_MODELS", "CommsStats", "IdealComms", "RoutedComms"]
+
+
+@dataclass(frozen=True, eq=False)
+class CommsStats:
+    """Per-robot communication measurements of one stage (arrays of shape (N,)).
+
+    Parameters
+    ----------
+    info_age_s : ndarray
+        Mean age of the other robots' states the robot's game used, seconds (NaN: it used
+        none).
+    fresh_fraction : ndarray
+        Share of the other members of its own N_i(h) whose state it held within
+        ``max_age_s`` (1 when N_i(h) holds nobody else).
+    messages_sent, messages_forwarded, messages_received : ndarray of int64
+    bytes_sent, bytes_forwarded, bytes_received : ndarray of int64
+        State-message payload bytes (:mod:`swarmgames.comms.wire`).
+    """
+
+    info_age_s: np.ndarray
+    fresh_fraction: np.ndarray
+    messages_sent: np.ndarray
+    messages_forwarded: np.ndarray
+    messages_received: np.ndarray
+    bytes_sent: np.ndarray
+    bytes_forwarded: np.ndarray
+    bytes_received: np.ndarray
+
+    def __post_init__(self) -> None:
+        freeze_fields(self)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The per-robot columns of ``metrics.csv``."""
+        return dict(vars(self))
+
+
+def _table_rows(snapshot: TopologySnapshot, h: int):
+    """Each robot's N_i(h) from its own table as CSR (sorted, the robot included)."""
+    nbh = snapshot.neighbourhood_matrix(int(h))
+    nbh.sort_indices()
+    return np.asarray(nbh.indptr, dtype=np.int64), np.asarray(nbh.indices, dtype=np.int64)
+
+
+@dataclass(eq=False)
+class IdealComms:
+    """Exact, instant, free delivery to every member of N_i(h) (see the module docstring).
+
+    Parameters
+    ----------
+    hops : int
+        h, the neighbourhood radius.
+    """
+
+    hops: int
+
+    def reset(self) -> None:
+        """Nothing is remembered between stages."""
+
+    def exchange(self, t: float, snapshot: TopologySnapshot, states, rng=None):
+        """``(None, stats)``: the stage pipeline's default inbox (the exact broadcast) is the
+        ideal one; every member receives every message of its neighbourhood once."""
+        states = np.asarray(states, dtype=float)
+        indptr, _ = _table_rows(snapshot, self.hops)
+        count = np.diff(indptr)
+        sizes = message_bytes(states.shape[1], count)
+        messages = broadcast(snapshot, self.hops, states)
+        row = np.repeat(np.arange(count.size), count)
+        other = messages.indices != row
+        received = np.bincount(row[other], minlength=count.size).astype(np.int64)
+        rx_bytes = np.bincount(
+            row[other], weights=sizes[messages.indices[other]], minlength=count.size
+        ).astype(np.int64)
+        n = count.size
+        stats = CommsStats(
+            info_age_s=np.where(count > 1, 0.0, np.nan),
+            fresh_fraction=np.ones(n),
+            messages_sent=np.ones(n, dtype=np.int64),
+            messages_forwarded=np.zeros(n, dtype=np.int64),
+            messages_received=received,
+            bytes_sent=sizes.astype(np.int64),
+            bytes_forwarded=np.zeros(n, dtype=np.int64),
+            bytes_received=rx_bytes,
+        )
+        return None, stats
+
+
+@dataclass(eq=False)
+class RoutedComms:
+    """State messages flooded over the links that exist now, with delay and loss, into belief
+    tables (see the module docstring).
+
+    Parameters
+    ----------
+    n_robots, state_dim, hops : int
+    propagation : PropagationModel
+        The radio: which links exist physically at the current positions.
+    hop_delay_s : float
+        Delay of every hop besides the frame's airtime (channel access, queueing), seconds.
+    rate_mbps : float
+        PHY rate of the state messages, Mbit/s.
+    decide_after_s : float
+        The robots decide this long after the stage time, seconds; later messages wait for
+        the next decision.
+    loss_rate : float
+        Probability that one transmission is lost (i.i.d.).
+    max_age_s : float
+        Beliefs older than this are dropped, seconds.
+    dead_reckoning : bool
+        Advance reported positions by reported velocities (states with velocities only).
+    """
+
+    n_robots: int
+    state_dim: int
+    hops: int
+    propagation: PropagationModel = field(default_factory=PropagationModel)
+    hop_delay_s: float = 0.002
+    rate_mbps: float = 6.0
+    decide_after_s: float = 0.1
+    loss_rate: float = 0.0
+    max_age_s: float = 3.0
+    dead_reckoning: bool = False
+    table: BeliefTable = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every belief (the start of a run)."""
+        self.table = BeliefTable.empty(self.n_robots, self.state_dim)
+
+    def _believed(self, idx: np.ndarray, now: float) -> tuple[np.ndarray, np.ndarray]:
+        """The states of belief entries ``idx`` as used at ``now``, and their ages."""
+        tab = self.table
+        age = now - tab.stamp[idx]
+        state = tab.state[idx].copy()
+        if self.dead_reckoning and self.state_dim >= 5:
+            state[:, :2] += tab.state[idx, 3:5] * age[:, None]
+        return state, age
+
+    def exchange(self, t: float, snapshot: TopologySnapshot, states, rng: np.random.Generator):
+        """Send, deliver and remember one stage's messages; the inbox at the decision."""
+        states = np.asarray(states, dtype=float)
+        n, dim = states.shape
+        indptr, members = _table_rows(snapshot, self.hops)
+        row = np.repeat(np.arange(n), np.diff(indptr))
+        other = members != row
+        # 1. Compose: own state, own table row, S̄ over what the sender knows now.
+        known = self.table.lookup(row[other], members[other], t, self.max_age_s)
+        found = known >= 0
+        total = states.copy()
+        count = np.ones(n)
+        if found.any():
+            believed, _ = self._believed(known[found], t)
+            np.add.at(total, row[other][found], believed)
+            np.add.at(count, row[other][found], 1.0)
+        mean = total / count[:, None]
+        sizes = message_bytes(dim, np.diff(indptr))
+        rows_padded = pad_rows(indptr, members, np.arange(n))
+        # 2. Deliver over the links that exist physically and in the forwarder's table.
+        links = link_graph(states[:, :3], self.propagation, rng)
+        phys = sp.csr_array(
+            (np.ones(links.indices.size, dtype=np.int8), links.indices, links.indptr),
+            shape=(n, n),
+        )
+        one = np.asarray(snapshot.hops) == 1
+        table = sp.csr_array(
+            (
+                np.ones(int(one.sum()), dtype=np.int8),
+                (np.asarray(snapshot.owner)[one], np.asarray(snapshot.dest)[one]),
+            ),
+            shape=(n, n),
+        )
+        adjacency = phys.multiply(table).tocsr()
+        delivery = flood(adjacency, self.hops, sizes, loss_rate=self.loss_rate, rng=rng)
+        hop_s = self.hop_delay_s + airtime_s(sizes, self.rate_mbps)
+        s = delivery.sender
+        new = BeliefTable(
+            n,
+            delivery.receiver,
+            s,
+            np.full(s.size, float(t)),
+            t + delivery.hops * hop_s[s],
+            states[s],
+            mean[s],
+            rows_padded[s].astype(np.int32),
+        )
+        decide = t + self.decide_after_s
+        self.table = self.table.merge(new, decide, self.max_age_s)
+        # 3. The inbox at the decision: own state first, then the members heard from.
+        idx = self.table.lookup(row[other], members[other], decide, self.max_age_s)
+        use = idx >= 0
+        believed, age = self._believed(idx[use], decide)
+        own = np.arange(n)
+        ent_owner = np.concatenate([own, row[other][use]])
+        ent_member = np.concatenate([own, members[other][use]])
+        width = max(rows_padded.shape[1], self.table.nbh.shape[1])
+        own_nbh = np.pad(
+            rows_padded, ((0, 0), (0, width - rows_padded.shape[1])), constant_values=-1
+        )
+        their_nbh = self.table.nbh[idx[use]]
+        their_nbh = np.pad(their_nbh, ((0, 0), (0, width - their_nbh.shape[1])), constant_values=-1)
+        order = np.lexsort((np.where(ent_member == ent_owner, -1, ent_member), ent_owner))
+        inbox = BeliefInbox(
+            indptr=np.concatenate([[0], np.cumsum(np.bincount(ent_owner, minlength=n))]),
+            member=ent_member[order].astype(np.int32),
+            state=np.concatenate([states, believed])[order],
+            mean=np.concatenate([mean, self.table.mean[idx[use]]])[order],
+            nbh=np.concatenate([own_nbh, their_nbh])[order].astype(np.int32),
+            age=np.concatenate([np.zeros(n), age])[order],
+        )
+        expected = np.bincount(row[other], minlength=n)
+        used = np.bincount(row[other][use], minlength=n)
+        stats = CommsStats(
+            info_age_s=inbox.info_age(),
+            fresh_fraction=np.where(expected > 0, used / np.maximum(expected, 1), 1.0),
+            messages_sent=delivery.sent,
+            messages_forwarded=delivery.forwarded,
+            messages_received=delivery.received,
+            bytes_sent=delivery.bytes_sent,
+            bytes_forwarded=delivery.bytes_forwarded,
+            bytes_received=delivery.bytes_received,
+        )
+        return inbox, stats

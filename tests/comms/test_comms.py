@@ -1,0 +1,182 @@
+"""The communication layer: wire sizes by hand, flooding, belief tables, routed runs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+from scipy.sparse import csgraph
+
+from swarmgames.comms import BeliefTable, RoutedComms, airtime_s, flood, message_bytes
+from swarmgames.config import parse_config
+from swarmgames.network.oracle import OracleProvider
+from swarmgames.sim import run
+from swarmgames.topology import TopologySnapshot
+
+# 802.11a at 6 Mbit/s, the wire format of swarmgames.comms.wire: 15 + 16 D + 4 |N_j| bytes.
+
+
+def _line(n: int, spacing: float = 300.0) -> np.ndarray:
+    return np.column_stack([np.arange(n) * spacing, np.zeros(n), np.full(n, 30.0)])
+
+
+def _bfs_snapshot(pos: np.ndarray, radius: float = 368.84) -> TopologySnapshot:
+    d = np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=-1)
+    adj = sp.csr_array((d <= radius) & (d > 0))
+    hops = csgraph.shortest_path(adj, unweighted=True)
+    hops[~np.isfinite(hops)] = 0
+    return TopologySnapshot.from_hop_matrix(0.0, hops.astype(int))
+
+
+def test_byte_counts_on_a_three_robot_line_match_the_wire_format_by_hand():
+    # Robots 0 - 1 - 2, 300 m apart (range 368.84 m), h = 2: every N_j holds all three, so
+    # each message is 15 + 16*3 + 4*3 = 75 bytes. Robot 1 relays the messages of 0 and 2;
+    # robots 0 and 2 each relay 1's message once (they first heard it one hop away).
+    pos = _line(3)
+    comms = RoutedComms(3, 3, 2)
+    _, stats = comms.exchange(10.0, _bfs_snapshot(pos), pos, np.random.default_rng(0))
+    assert message_bytes(3, [3]).tolist() == [75]
+    np.testing.assert_array_equal(stats.bytes_sent, [75, 75, 75])
+    np.testing.assert_array_equal(stats.messages_forwarded, [1, 2, 1])
+    np.testing.assert_array_equal(stats.bytes_forwarded, [75, 150, 75])
+    np.testing.assert_array_equal(stats.bytes_received, [150, 150, 150])
+    # With h = 1 the ends report 2 members (71 bytes), the middle 3 (75); nobody relays.
+    comms = RoutedComms(3, 3, 1)
+    _, stats = comms.exchange(10.0, _bfs_snapshot(pos), pos, np.random.default_rng(0))
+    np.testing.assert_array_equal(stats.bytes_sent, [71, 75, 71])
+    np.testing.assert_array_equal(stats.messages_forwarded, [0, 0, 0])
+    np.testing.assert_array_equal(stats.bytes_received, [75, 142, 75])
+
+
+@pytest.mark.parametrize("h", [1, 2, 3])
+def test_static_lossless_delivery_reaches_exactly_the_h_hop_members_one_latency_per_hop(h):
+    rng = np.random.default_rng(4)
+    pos = np.c_[rng.uniform(0, 1500, (25, 2)), np.full(25, 30.0)]
+    snap = _bfs_snapshot(pos)
+    comms = RoutedComms(25, 3, h, hop_delay_s=0.003)
+    inbox, stats = comms.exchange(5.0, snap, pos, rng)
+    hops = snap.hop_matrix()
+    table = comms.table
+    for i in range(25):
+        heard = set(table.sender[table.owner == i].tolist())
+        assert heard == {j for j in range(25) if 0 < hops[i, j] <= h}
+    # Latency = hops x (delay + the sender's frame airtime).
+    sizes = message_bytes(3, np.diff(snap.neighbourhood_matrix(h).indptr))
+    want = hops[table.owner, table.sender] * (0.003 + airtime_s(sizes[table.sender], 6.0))
+    np.testing.assert_allclose(table.arrival - table.stamp, want, rtol=1e-12)
+    # Everything arrived before the decision: every member of N_i(h) is used, with the
+    # state it has now, aged by the decision delay.
+    assert np.all(stats.fresh_fraction == 1.0)
+    views = inbox.views()
+    ideal = __import__("swarmgames.game.local", fromlist=["broadcast"]).broadcast(snap, h, pos)
+    ref = ideal.views()
+    np.testing.assert_array_equal(views.members, ref.members)
+    np.testing.assert_array_equal(views.states, ref.states)
+    np.testing.assert_allclose(inbox.age[inbox.age > 0], comms.decide_after_s)
+
+
+def test_flooding_uses_only_links_that_exist_physically_and_in_the_table():
+    # The table still lists 0 - 1 (OLSR lag) but the robots are 1 km apart: nothing passes.
+    pos = np.array([[0.0, 0, 30], [1000.0, 0, 30]])
+    snap = TopologySnapshot.from_hop_matrix(0.0, np.array([[0, 1], [1, 0]]))
+    inbox, stats = RoutedComms(2, 3, 2).exchange(1.0, snap, pos, np.random.default_rng(0))
+    assert stats.messages_received.sum() == 0 and np.all(stats.fresh_fraction == 0)
+    assert inbox.sizes.tolist() == [1, 1]  # each robot's game holds only itself
+
+
+def test_loss_draws_are_seeded_and_total_loss_isolates():
+    pos = _line(5, 200.0)
+    snap = _bfs_snapshot(pos)
+    adj = sp.csr_array((np.abs(np.subtract.outer(range(5), range(5))) == 1).astype(int))
+    a = flood(adj, 2, np.full(5, 10), loss_rate=0.5, rng=np.random.default_rng(1))
+    b = flood(adj, 2, np.full(5, 10), loss_rate=0.5, rng=np.random.default_rng(1))
+    np.testing.assert_array_equal(a.receiver, b.receiver)
+    none = flood(adj, 2, np.full(5, 10), loss_rate=1.0, rng=np.random.default_rng(1))
+    assert none.receiver.size == 0 and none.bytes_received.sum() == 0
+    _, stats = RoutedComms(5, 3, 2, loss_rate=1.0).exchange(
+        0.0, snap, pos, np.random.default_rng(0)
+    )
+    assert np.isnan(stats.info_age_s).all() and np.all(stats.fresh_fraction == 0)
+
+
+def _entries(owner, sender, stamp, arrival, x):
+    n = len(owner)
+    return BeliefTable(
+        4,
+        np.asarray(owner),
+        np.asarray(sender),
+        np.asarray(stamp, float),
+        np.asarray(arrival, float),
+        np.c_[np.asarray(x, float), np.zeros(n), np.zeros(n)],
+        np.zeros((n, 3)),
+        np.full((n, 1), -1, np.int32),
+    )
+
+
+def test_belief_table_keeps_the_newest_arrived_and_drops_the_stale():
+    t = BeliefTable.empty(4, 3)
+    t = t.merge(_entries([0, 0], [1, 2], [0.0, 0.0], [0.01, 0.01], [1.0, 2.0]), 0.1, 3.0)
+    t = t.merge(_entries([0], [1], [1.0], [1.01], [5.0]), 1.1, 3.0)
+    idx = t.lookup([0, 0, 0], [1, 2, 3], 1.1, 3.0)
+    assert t.state[idx[0], 0] == 5.0 and t.state[idx[1], 0] == 2.0 and idx[2] == -1
+    assert t.n_entries == 2  # the superseded message from robot 1 is gone
+    # A message still in flight is kept but not used before it arrives.
+    t = t.merge(_entries([0], [1], [2.0], [2.5], [9.0]), 2.1, 3.0)
+    assert t.state[t.lookup([0], [1], 2.1, 3.0)[0], 0] == 5.0
+    # Older than max_age: robot 2 (last heard at 0 s) is dropped at 3.5 s.
+    t = t.merge(_entries([], [], [], [], []), 3.5, 3.0)
+    assert t.lookup([0], [2], 3.5, 3.0)[0] == -1
+    assert t.state[t.lookup([0], [1], 3.5, 3.0)[0], 0] == 9.0
+
+
+def test_dead_reckoning_advances_reported_positions():
+    comms = RoutedComms(2, 5, 1, dead_reckoning=True)
+    comms.table = BeliefTable(
+        2,
+        np.array([0]),
+        np.array([1]),
+        np.array([0.0]),
+        np.array([0.01]),
+        np.array([[10.0, 0.0, 30.0, 2.0, -1.0]]),
+        np.zeros((1, 5)),
+        np.full((1, 1), -1, np.int32),
+    )
+    state, age = comms._believed(np.array([0]), 1.5)
+    np.testing.assert_allclose(state[0, :3], [13.0, -1.5, 30.0])
+    assert age[0] == 1.5
+
+
+def _cfg(**comms):
+    return parse_config(
+        {
+            "swarm": {"n_robots": 8, "start_radius_m": 300.0},
+            "sim": {"duration_s": 15.0, "warmup_s": 2.0, "animation": False},
+            "comms": {"model": "routed", **comms},
+        }
+    )
+
+
+def test_information_age_grows_with_the_loss_rate():
+    ages = []
+    for loss in (0.0, 0.3, 0.6):
+        res = run(_cfg(loss_rate=loss), progress=False, provider=OracleProvider(8))
+        ages.append(np.nanmean(res.to_frame("metrics")["info_age_s"]))
+        assert np.isfinite(res.to_frame("metrics")["payoff"]).all()
+    assert ages[0] == pytest.approx(0.1) and ages[0] < ages[1] < ages[2]
+
+
+def test_total_loss_leaves_isolated_robots_that_still_run():
+    res = run(_cfg(loss_rate=1.0), progress=False, provider=OracleProvider(8))
+    m = res.to_frame("metrics")
+    assert (m["neighbours"] == 0).all() and (m["fresh_fraction"] == 0).all()
+    assert (m["bytes_received"] == 0).all() and (m["bytes_sent"] > 0).all()
+    assert res.summary["stages"] == 15
+
+
+def test_routed_config_rules():
+    from swarmgames.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r"comms\.decide_after_s must be < sim\.control_period_s"):
+        _cfg(decide_after_s=1.0)
+    with pytest.raises(ConfigError, match=r"comms\.loss_rate: must be <= 1"):
+        _cfg(loss_rate=1.5)
