@@ -88,15 +88,57 @@ def test_loss_draws_are_seeded_and_total_loss_isolates():
     pos = _line(5, 200.0)
     snap = _bfs_snapshot(pos)
     adj = sp.csr_array((np.abs(np.subtract.outer(range(5), range(5))) == 1).astype(int))
-    a = flood(adj, 2, np.full(5, 10), loss_rate=0.5, rng=np.random.default_rng(1))
-    b = flood(adj, 2, np.full(5, 10), loss_rate=0.5, rng=np.random.default_rng(1))
-    np.testing.assert_array_equal(a.receiver, b.receiver)
-    none = flood(adj, 2, np.full(5, 10), loss_rate=1.0, rng=np.random.default_rng(1))
+
+    def lossy(seed, p):
+        rng = np.random.default_rng(seed)
+        return flood(adj, 2, np.full(5, 10), link_success=lambda u, v: rng.random(u.size) >= p)
+
+    np.testing.assert_array_equal(lossy(1, 0.5).receiver, lossy(1, 0.5).receiver)
+    none = lossy(1, 1.0)
     assert none.receiver.size == 0 and none.bytes_received.sum() == 0
-    _, stats = RoutedComms(5, 3, 2, loss_rate=1.0).exchange(
-        0.0, snap, pos, np.random.default_rng(0)
-    )
+    comms = RoutedComms(5, 3, 2, loss_rate=1.0)
+    _, stats = comms.exchange(0.0, snap, pos, np.random.default_rng(0))
     assert np.isnan(stats.info_age_s).all() and np.all(stats.fresh_fraction == 0)
+
+
+def test_iid_loss_frequency_matches_the_loss_rate():
+    # One hop, 2 robots, 4000 stages of messages: each direction is lost at rate p.
+    pos = _line(2, 100.0)
+    snap = _bfs_snapshot(pos)
+    comms = RoutedComms(2, 3, 1, loss_rate=0.3)
+    rng = np.random.default_rng(2)
+    got = [comms.exchange(float(k), snap, pos, rng)[1].messages_received for k in range(4000)]
+    assert np.mean(got) == pytest.approx(0.7, abs=0.02)
+
+
+def test_gilbert_elliott_losses_come_in_bursts():
+    # Same mean loss as i.i.d. p = 1/11 (stationary bad share 0.05 / (0.05 + 0.5)), but a
+    # lost message is followed by another loss far more often than 1 in 11.
+    pos = _line(2, 100.0)
+    snap = _bfs_snapshot(pos)
+    comms = RoutedComms(2, 3, 1, loss_model="gilbert_elliott")
+    rng = np.random.default_rng(3)
+    lost = np.array(
+        [comms.exchange(float(k), snap, pos, rng)[1].messages_received[1] == 0 for k in range(6000)]
+    )
+    assert lost.mean() == pytest.approx(1 / 11, abs=0.02)
+    assert lost[1:][lost[:-1]].mean() > 0.4  # P(lost | lost before) = 1 - 0.5
+
+
+def test_fading_channel_draws_each_reception():
+    # Rayleigh fading (Nakagami m = 1) at 300 m under Friis (mean power 7.3 dB above the
+    # -82 dBm threshold): a frame arrives with probability exp(-10^(-7.3/10)) ~ 0.83.
+    from swarmgames.network.parameters import RadioParameters
+    from swarmgames.network.propagation import PropagationModel
+
+    model = PropagationModel(RadioParameters(nakagami_m=1.0))
+    margin = float(model.mean_rx_power(np.array([300.0]))[0]) + 82.0
+    pos = _line(2, 300.0)
+    comms = RoutedComms(2, 3, 1, propagation=model)
+    rng = np.random.default_rng(4)
+    snap = _bfs_snapshot(pos)
+    got = [comms.exchange(float(k), snap, pos, rng)[1].messages_received[0] for k in range(3000)]
+    assert np.mean(got) == pytest.approx(np.exp(-(10 ** (-margin / 10))), abs=0.03)
 
 
 def _entries(owner, sender, stamp, arrival, x):

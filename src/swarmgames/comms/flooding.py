@@ -5,19 +5,22 @@ A message leaves its sender once per control period and is rebroadcast, hop afte
 exist physically at that moment (v within the radio range of u at the current positions)
 *and* in u's routing table (v a 1-hop, symmetric neighbour of u): the usable links are the
 ``adjacency`` matrix. Each robot that receives a message for the first time at depth d < ttl
-forwards it once; a copy heard again is not forwarded again. With the i.i.d. loss model every
-transmission u→v of every message is lost with probability p, independently, so a robot that
-hears c transmitters of a new message at one depth gets it with probability 1 − p^c. The
-depth of the first reception is the number of hops the message travelled, and the latency is
+forwards it once; a copy heard again is not forwarded again. Every transmission u→v of every
+message arrives or not by the caller's loss and reception models (``link_success``: i.i.d.
+loss, a Gilbert–Elliott burst channel per link, the fading channel's own draw), so a robot
+that hears several relays of a new message gets it if one of them arrives. The depth of the
+first reception is the number of hops the message travelled, and the latency is
 that many times the per-hop latency (a configured delay plus the frame's airtime,
 :mod:`swarmgames.comms.wire`).
 
-Everything is vectorised over all the messages of a stage at once: the frontier of every
-message is a row of one sparse matrix, and one sparse product per hop moves them all.
+Everything is vectorised over all the messages of a stage at once: one hop expands every
+(message, holder) pair of the frontier into its transmissions along the CSR rows of the
+adjacency.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -70,8 +73,7 @@ def flood(
     ttl: int,
     sizes: np.ndarray,
     *,
-    loss_rate: float = 0.0,
-    rng: np.random.Generator | None = None,
+    link_success: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
     senders: np.ndarray | None = None,
 ) -> Delivery:
     """Flood every sender's message over ``adjacency`` for at most ``ttl`` hops.
@@ -84,11 +86,11 @@ def flood(
         Largest number of hops, >= 1.
     sizes : ndarray of int, shape (N,)
         Payload of each robot's message, bytes.
-    loss_rate : float
-        Probability that one transmission is lost, in [0, 1].
-    rng : numpy.random.Generator
-        Draws of the losses (one uniform per new (message, receiver) pair and hop, in
-        (sender, receiver) order); needed when ``loss_rate > 0``.
+    link_success : callable ``(u, v) -> ndarray of bool``, optional
+        Whether each transmission from ``u[k]`` to ``v[k]`` arrives (the loss and reception
+        models draw here); called once per hop with every transmission of that hop that
+        could bring a message to a robot that does not have it yet, in (message,
+        transmitter, receiver) order. Default: every transmission arrives.
     senders : ndarray of bool, shape (N,), optional
         Robots that send a message this stage (default: all).
 
@@ -110,36 +112,35 @@ def flood(
     sizes = np.asarray(sizes, dtype=np.int64)
     if senders is None:
         senders = np.ones(n, dtype=bool)
-    src = np.flatnonzero(senders)
-    adj = sp.csr_array(adjacency, dtype=np.int32)
-    frontier = sp.csr_array(
-        (np.ones(src.size, dtype=np.int32), (src, src)), shape=(n, n), dtype=np.int32
-    )
-    reached = np.sort(src.astype(np.int64) * n + src)
+    adj = sp.csr_array(adjacency)
+    adj.sort_indices()
+    indptr, indices = np.asarray(adj.indptr, dtype=np.int64), np.asarray(adj.indices, np.int64)
+    msg = np.flatnonzero(senders).astype(np.int64)  # the frontier: (message, holder) pairs
+    node = msg.copy()
+    reached = np.sort(msg * n + node)
     forwarded = np.zeros(n, dtype=np.int64)
     bytes_forwarded = np.zeros(n, dtype=np.int64)
     got: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     for depth in range(1, int(ttl) + 1):
         if depth > 1:  # robots that first heard a message one hop ago relay it once
-            msg, relay = frontier.nonzero()
-            np.add.at(forwarded, relay, 1)
-            np.add.at(bytes_forwarded, relay, sizes[msg])
-        heard = sp.coo_array(frontier @ adj)
-        keys = heard.row.astype(np.int64) * n + heard.col
-        order = np.argsort(keys, kind="stable")
-        keys, count = keys[order], heard.data[order]
-        new = ~_isin_sorted(keys, reached)
-        keys, count = keys[new], count[new]
-        if loss_rate > 0 and keys.size:
-            keys = keys[rng.random(keys.size) < 1.0 - float(loss_rate) ** count]
+            np.add.at(forwarded, node, 1)
+            np.add.at(bytes_forwarded, node, sizes[msg])
+        deg = indptr[node + 1] - indptr[node]
+        tx_msg, tx_u = np.repeat(msg, deg), np.repeat(node, deg)
+        offset = np.arange(tx_msg.size) - np.repeat(np.cumsum(deg) - deg, deg)
+        tx_v = indices[np.repeat(indptr[node], deg) + offset]
+        keys = tx_msg * n + tx_v
+        fresh = ~_isin_sorted(keys, reached)
+        keys, tx_u, tx_v = keys[fresh], tx_u[fresh], tx_v[fresh]
+        if link_success is not None and keys.size:
+            ok = np.asarray(link_success(tx_u, tx_v), dtype=bool)
+            keys = keys[ok]
+        keys = np.unique(keys)
         if keys.size == 0:
             break
         msg, node = np.divmod(keys, n)
         got.append((node, msg, np.full(keys.size, depth, dtype=np.int64)))
         reached = np.union1d(reached, keys)
-        frontier = sp.csr_array(
-            (np.ones(keys.size, dtype=np.int32), (msg, node)), shape=(n, n), dtype=np.int32
-        )
     if got:
         receiver, sender, hops = (np.concatenate(parts) for parts in zip(*got, strict=True))
         order = np.lexsort((sender, receiver))

@@ -12,7 +12,12 @@ Once per control period, at the stage time t, every robot composes its state mes
     The message is flooded hop by hop for at most h hops over the links that exist now, both
     physically (the radio model at the current positions) and in the forwarder's routing
     table (:func:`~swarmgames.comms.flooding.flood`); each hop takes ``hop_delay_s`` plus the
-    frame's airtime at ``rate_mbps`` and loses the message with probability ``loss_rate``.
+    frame's airtime at ``rate_mbps``. A transmission arrives when the radio channel lets it
+    (with fading or shadowing on, the reception model's own draw against the threshold) and
+    the loss model spares it: i.i.d. with probability ``loss_rate``, or a Gilbert–Elliott
+    channel per link (a good state losing ``loss_rate``, a bad state losing
+    ``ge_loss_bad``, switching between them from stage to stage with probabilities
+    ``ge_good_to_bad`` and ``ge_bad_to_good``: losses in bursts).
     Each robot keeps a belief table of the newest message heard from each robot
     (:class:`~swarmgames.comms.beliefs.BeliefTable`) and builds its local game from the
     members of its own N_i(h) it heard from within ``max_age_s``; with ``dead_reckoning`` a
@@ -146,7 +151,13 @@ class RoutedComms:
         The robots decide this long after the stage time, seconds; later messages wait for
         the next decision.
     loss_rate : float
-        Probability that one transmission is lost (i.i.d.).
+        Probability that one transmission is lost (i.i.d.; the good state of the
+        Gilbert–Elliott channel).
+    loss_model : {"iid", "gilbert_elliott"}
+    ge_good_to_bad, ge_bad_to_good : float
+        Per-stage transition probabilities of a link's Gilbert–Elliott state.
+    ge_loss_bad : float
+        Loss probability of a link in the bad state.
     max_age_s : float
         Beliefs older than this are dropped, seconds.
     dead_reckoning : bool
@@ -163,14 +174,71 @@ class RoutedComms:
     loss_rate: float = 0.0
     max_age_s: float = 3.0
     dead_reckoning: bool = False
+    loss_model: str = "iid"
+    ge_good_to_bad: float = 0.05
+    ge_bad_to_good: float = 0.5
+    ge_loss_bad: float = 1.0
     table: BeliefTable = field(init=False)
+    bad_links: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
         self.reset()
 
     def reset(self) -> None:
-        """Forget every belief (the start of a run)."""
+        """Forget every belief and every link's channel state (the start of a run)."""
         self.table = BeliefTable.empty(self.n_robots, self.state_dim)
+        self.bad_links = np.zeros(0, dtype=np.int64)
+
+    def _links(self, snapshot: TopologySnapshot, pos: np.ndarray, rng) -> sp.csr_array:
+        """Links a message can take now: in the transmitter's table (a 1-hop neighbour) and
+        physically possible (within range; with a random channel, within the range beyond
+        which a link is negligibly likely; each transmission then draws its own power)."""
+        n = pos.shape[0]
+        if self.propagation.random:
+            from scipy.spatial import cKDTree
+
+            pairs = cKDTree(pos).query_pairs(self.propagation.max_range(), output_type="ndarray")
+            a, b = np.r_[pairs[:, 0], pairs[:, 1]], np.r_[pairs[:, 1], pairs[:, 0]]
+            phys = sp.csr_array((np.ones(a.size, dtype=np.int8), (a, b)), shape=(n, n))
+        else:
+            g = link_graph(pos, self.propagation, rng)
+            phys = sp.csr_array(
+                (np.ones(g.indices.size, dtype=np.int8), g.indices, g.indptr), shape=(n, n)
+            )
+        one = np.asarray(snapshot.hops) == 1
+        table = sp.csr_array(
+            (
+                np.ones(int(one.sum()), dtype=np.int8),
+                (np.asarray(snapshot.owner)[one], np.asarray(snapshot.dest)[one]),
+            ),
+            shape=(n, n),
+        )
+        return phys.multiply(table).tocsr()
+
+    def _evolve_channel(self, adjacency: sp.csr_array, rng) -> None:
+        """One stage of every usable link's Gilbert–Elliott state (new links start good)."""
+        coo = sp.coo_array(adjacency)
+        keys = np.sort(coo.row.astype(np.int64) * self.n_robots + coo.col)
+        was_bad = np.isin(keys, self.bad_links, assume_unique=True)
+        draw = rng.random(keys.size)
+        bad = np.where(was_bad, draw >= self.ge_bad_to_good, draw < self.ge_good_to_bad)
+        self.bad_links = keys[bad]
+
+    def _arrives(self, u: np.ndarray, v: np.ndarray, pos: np.ndarray, rng) -> np.ndarray:
+        """Whether each transmission u -> v arrives: the reception draw, then the loss."""
+        ok = np.ones(u.size, dtype=bool)
+        model = self.propagation
+        if model.random:
+            d = np.linalg.norm(pos[u] - pos[v], axis=1)
+            power = model.rx_power(d, rng, pairs=(np.minimum(u, v), np.maximum(u, v)))
+            ok &= power >= model.radio.rx_threshold_dbm
+        loss = np.full(u.size, float(self.loss_rate))
+        if self.loss_model == "gilbert_elliott" and self.bad_links.size:
+            bad = np.isin(u * self.n_robots + v, self.bad_links)
+            loss[bad] = self.ge_loss_bad
+        if np.any(loss > 0):
+            ok &= rng.random(u.size) >= loss
+        return ok
 
     def _believed(self, idx: np.ndarray, now: float) -> tuple[np.ndarray, np.ndarray]:
         """The states of belief entries ``idx`` as used at ``now``, and their ages."""
@@ -201,21 +269,16 @@ class RoutedComms:
         sizes = message_bytes(dim, np.diff(indptr))
         rows_padded = pad_rows(indptr, members, np.arange(n))
         # 2. Deliver over the links that exist physically and in the forwarder's table.
-        links = link_graph(states[:, :3], self.propagation, rng)
-        phys = sp.csr_array(
-            (np.ones(links.indices.size, dtype=np.int8), links.indices, links.indptr),
-            shape=(n, n),
+        pos = states[:, :3]
+        adjacency = self._links(snapshot, pos, rng)
+        if self.loss_model == "gilbert_elliott":
+            self._evolve_channel(adjacency, rng)
+        delivery = flood(
+            adjacency,
+            self.hops,
+            sizes,
+            link_success=lambda u, v: self._arrives(u, v, pos, rng),
         )
-        one = np.asarray(snapshot.hops) == 1
-        table = sp.csr_array(
-            (
-                np.ones(int(one.sum()), dtype=np.int8),
-                (np.asarray(snapshot.owner)[one], np.asarray(snapshot.dest)[one]),
-            ),
-            shape=(n, n),
-        )
-        adjacency = phys.multiply(table).tocsr()
-        delivery = flood(adjacency, self.hops, sizes, loss_rate=self.loss_rate, rng=rng)
         hop_s = self.hop_delay_s + airtime_s(sizes, self.rate_mbps)
         s = delivery.sender
         new = BeliefTable(

@@ -165,7 +165,35 @@ class CommsConfig(_Section):
         ),
     )
     loss_rate: float = Field(
-        0.0, ge=0, le=1, description="Probability that one transmission is lost (i.i.d.)."
+        0.0,
+        ge=0,
+        le=1,
+        description=(
+            "Probability that one transmission is lost (i.i.d.; with the Gilbert-Elliott "
+            "model, the loss of a link in its good state)."
+        ),
+    )
+    loss_model: Literal["iid", "gilbert_elliott"] = Field(
+        "iid",
+        description=(
+            "'iid': every transmission lost independently; 'gilbert_elliott': each link "
+            "switches between a good and a bad state from stage to stage (losses in bursts)."
+        ),
+    )
+    ge_good_to_bad: float = Field(
+        0.05,
+        ge=0,
+        le=1,
+        description="Gilbert-Elliott: probability per stage that a good link turns bad.",
+    )
+    ge_bad_to_good: float = Field(
+        0.5,
+        ge=0,
+        le=1,
+        description="Gilbert-Elliott: probability per stage that a bad link recovers.",
+    )
+    ge_loss_bad: float = Field(
+        1.0, ge=0, le=1, description="Gilbert-Elliott: loss probability of a link in the bad state."
     )
     max_age_s: float = Field(
         3.0, gt=0, description="States older than this are dropped from the games, seconds."

@@ -94,4 +94,8 @@ def comms_from_config(config, state_dim: int, provider: Any = None) -> IdealComm
         loss_rate=c.loss_rate,
         max_age_s=c.max_age_s,
         dead_reckoning=c.dead_reckoning,
+        loss_model=c.loss_model,
+        ge_good_to_bad=c.ge_good_to_bad,
+        ge_bad_to_good=c.ge_bad_to_good,
+        ge_loss_bad=c.ge_loss_bad,
     )
