@@ -28,6 +28,7 @@ SWARM_COLUMNS = [
     "oscillation",
     "mean_info_age_s",
     "bytes_per_robot",
+    "alive_robots",
 ]
 
 

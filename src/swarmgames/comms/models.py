@@ -105,9 +105,11 @@ class IdealComms:
     def reset(self) -> None:
         """Nothing is remembered between stages."""
 
-    def exchange(self, t: float, snapshot: TopologySnapshot, states, rng=None):
+    def exchange(self, t: float, snapshot: TopologySnapshot, states, rng=None, active=None):
         """``(None, stats)``: the stage pipeline's default inbox (the exact broadcast) is the
-        ideal one; every member receives every message of its neighbourhood once."""
+        ideal one; every member receives every message of its neighbourhood once. A robot
+        without a radio (``active`` false) is known only through the routing tables, which
+        forget it after their hold times."""
         states = np.asarray(states, dtype=float)
         indptr, _ = _table_rows(snapshot, self.hops)
         count = np.diff(indptr)
@@ -158,6 +160,8 @@ class RoutedComms:
         Per-stage transition probabilities of a link's Gilbert–Elliott state.
     ge_loss_bad : float
         Loss probability of a link in the bad state.
+    gps_error_m : float
+        Standard deviation of the error of the x and y a robot reports, metres.
     max_age_s : float
         Beliefs older than this are dropped, seconds.
     dead_reckoning : bool
@@ -178,6 +182,7 @@ class RoutedComms:
     ge_good_to_bad: float = 0.05
     ge_bad_to_good: float = 0.5
     ge_loss_bad: float = 1.0
+    gps_error_m: float = 0.0
     table: BeliefTable = field(init=False)
     bad_links: np.ndarray = field(init=False)
 
@@ -249,10 +254,21 @@ class RoutedComms:
             state[:, :2] += tab.state[idx, 3:5] * age[:, None]
         return state, age
 
-    def exchange(self, t: float, snapshot: TopologySnapshot, states, rng: np.random.Generator):
-        """Send, deliver and remember one stage's messages; the inbox at the decision."""
+    def exchange(
+        self,
+        t: float,
+        snapshot: TopologySnapshot,
+        states,
+        rng: np.random.Generator,
+        active: np.ndarray | None = None,
+    ):
+        """Send, deliver and remember one stage's messages; the inbox at the decision.
+
+        ``active`` (default: all) marks the robots whose radio works: the others send,
+        forward and receive nothing."""
         states = np.asarray(states, dtype=float)
         n, dim = states.shape
+        active = np.ones(n, dtype=bool) if active is None else np.asarray(active, dtype=bool)
         indptr, members = _table_rows(snapshot, self.hops)
         row = np.repeat(np.arange(n), np.diff(indptr))
         other = members != row
@@ -266,11 +282,18 @@ class RoutedComms:
             np.add.at(total, row[other][found], believed)
             np.add.at(count, row[other][found], 1.0)
         mean = total / count[:, None]
+        reported = states
+        if self.gps_error_m > 0:  # what each robot reports of its own position
+            reported = states.copy()
+            reported[:, :2] += rng.normal(0.0, self.gps_error_m, (n, 2))
         sizes = message_bytes(dim, np.diff(indptr))
         rows_padded = pad_rows(indptr, members, np.arange(n))
         # 2. Deliver over the links that exist physically and in the forwarder's table.
         pos = states[:, :3]
         adjacency = self._links(snapshot, pos, rng)
+        if not active.all():  # a dead radio neither sends, relays nor hears
+            on = sp.diags_array(active.astype(np.int8), dtype=np.int8)
+            adjacency = sp.csr_array(on @ adjacency @ on)
         if self.loss_model == "gilbert_elliott":
             self._evolve_channel(adjacency, rng)
         delivery = flood(
@@ -278,6 +301,7 @@ class RoutedComms:
             self.hops,
             sizes,
             link_success=lambda u, v: self._arrives(u, v, pos, rng),
+            senders=active,
         )
         hop_s = self.hop_delay_s + airtime_s(sizes, self.rate_mbps)
         s = delivery.sender
@@ -287,7 +311,7 @@ class RoutedComms:
             s,
             np.full(s.size, float(t)),
             t + delivery.hops * hop_s[s],
-            states[s],
+            reported[s],
             mean[s],
             rows_padded[s].astype(np.int32),
         )

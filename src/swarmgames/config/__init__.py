@@ -15,6 +15,7 @@ from swarmgames.config.io import (
 from swarmgames.config.scaling import scaled_config
 from swarmgames.config.schema import (
     CommsConfig,
+    FaultsConfig,
     GameConfig,
     NetworkConfig,
     OlsrConfig,
@@ -26,6 +27,7 @@ from swarmgames.config.schema import (
 
 __all__ = [
     "CommsConfig",
+    "FaultsConfig",
     "GameConfig",
     "NetworkConfig",
     "OlsrConfig",

@@ -34,6 +34,7 @@ from swarmgames.section import Section
 
 __all__ = [
     "CommsConfig",
+    "FaultsConfig",
     "GameConfig",
     "NetworkConfig",
     "OlsrConfig",
@@ -316,6 +317,45 @@ class SwarmConfig(_Section):
     )
 
 
+class FaultsConfig(_Section):
+    """Failures during a mission, seeded (docs/comms.md, "Faults"). A crashed robot stops
+    and falls silent; a radio failure leaves it flying, deaf and mute; the others learn of
+    either only through their routing tables' hold times and the age of its messages."""
+
+    crash: tuple[tuple[float, int], ...] = Field(
+        (),
+        description="Crash-stop failures as [[t_s, robot], ...]: from t_s on the robot holds "
+        "its position and neither sends nor receives.",
+    )
+    crash_rate_per_s: float = Field(
+        0.0,
+        ge=0,
+        le=1.0,
+        description="Random crash-stop failures: every robot's hazard rate, per second "
+        "(exponential times drawn once per run from the seed), 1/s.",
+    )
+    radio_failure: tuple[tuple[float, int], ...] = Field(
+        (),
+        description="Radio-only failures as [[t_s, robot], ...]: from t_s the robot flies on "
+        "but neither sends nor receives.",
+    )
+    jam_center_m: tuple[float, float] | None = Field(
+        None, description="Centre of a jammed disc where no robot can send or receive, metres."
+    )
+    jam_radius_m: float = Field(0.0, ge=0, le=1e6, description="Radius of the jammed disc, metres.")
+    jam_start_s: float = Field(0.0, ge=0, description="When the jamming starts, seconds.")
+    jam_end_s: float | None = Field(
+        None, ge=0, description="When the jamming ends, seconds (unset: never)."
+    )
+    gps_error_m: float = Field(
+        0.0,
+        ge=0,
+        le=1e4,
+        description="Standard deviation of the position error of the states robots report "
+        "(routed comms), per coordinate x, y, metres.",
+    )
+
+
 class SimConfig(_Section):
     """The stage loop.
 
@@ -392,6 +432,7 @@ class ScenarioConfig(_Section):
     game: GameConfig = Field(default_factory=GameConfig)
     sim: SimConfig = Field(default_factory=SimConfig)
     comms: CommsConfig = Field(default_factory=CommsConfig)
+    faults: FaultsConfig = Field(default_factory=FaultsConfig)
     mission: SerializeAsAny[Section] = Field(
         default=None, description="The mission's own section (the table named by scenario)."
     )
@@ -444,6 +485,15 @@ class ScenarioConfig(_Section):
                 "comms.decide_after_s must be < sim.control_period_s (a robot decides within "
                 f"its period) (got {self.comms.decide_after_s} >= {sim.control_period_s})"
             )
+        for name in ("crash", "radio_failure"):
+            for when, robot in getattr(self.faults, name):
+                if not (0 <= robot < sw.n_robots) or when < 0:
+                    raise ValueError(
+                        f"faults.{name}: every [t_s, robot] needs t_s >= 0 and "
+                        f"0 <= robot < swarm.n_robots = {sw.n_robots} (got [{when}, {robot}])"
+                    )
+        if self.faults.jam_radius_m > 0 and self.faults.jam_center_m is None:
+            raise ValueError("faults.jam_radius_m > 0 needs faults.jam_center_m (got None)")
         if self.game.solver == "centralised" and sim.controller == "game" and sw.n_robots > 300:
             raise ValueError(
                 "game.solver = 'centralised' holds an N^2 A^2 table: swarm.n_robots must be "

@@ -71,8 +71,10 @@ NETWORK_COLUMNS = [
     "oscillation",
     "mean_info_age_s",
     "bytes_per_robot",
+    "alive_robots",
 ]
-#: Per-robot columns of the communication layer (metrics.csv, after METRICS_COLUMNS).
+#: Per-robot columns of the communication layer and the faults (metrics.csv, after
+#: METRICS_COLUMNS).
 COMMS_COLUMNS = [
     "info_age_s",
     "fresh_fraction",
@@ -82,6 +84,8 @@ COMMS_COLUMNS = [
     "bytes_sent",
     "bytes_forwarded",
     "bytes_received",
+    "alive",
+    "radio",
 ]
 RESERVED_COLUMNS = frozenset(
     [*TRAJECTORY_COLUMNS, *METRICS_COLUMNS, *COMMS_COLUMNS, *SWARM_HEAD, *NETWORK_COLUMNS]

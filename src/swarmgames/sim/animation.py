@@ -20,7 +20,8 @@ __all__ = ["render_gif"]
 
 def render_gif(result, max_frames: int = 60, fps: int = 8) -> bytes:
     """The animation as GIF bytes: robots, 1-hop links (grey) and robot 0's 2-hop
-    neighbourhood (orange) at up to ``max_frames`` evenly spaced stages."""
+    neighbourhood (orange) at up to ``max_frames`` evenly spaced stages; a robot without a
+    radio is grey, a crashed one a black cross."""
     from PIL import Image
 
     tr = result.trajectory
@@ -37,6 +38,7 @@ def render_gif(result, max_frames: int = 60, fps: int = 8) -> bytes:
         box = np.asarray(extent(), dtype=float)
         lo, hi = np.minimum(lo, box[::2]), np.maximum(hi, box[1::2])
     pad = max(0.05 * float(np.max(hi - lo)), 1.0)  # metres around what the frames show
+    alive, radio = _flags(result, "alive", s, n), _flags(result, "radio", s, n)
     fig = Figure(figsize=(5, 5), dpi=80)
     canvas = FigureCanvasAgg(fig)
     ax = fig.add_subplot()
@@ -48,7 +50,12 @@ def render_gif(result, max_frames: int = 60, fps: int = 8) -> bytes:
         for a, b in edges:
             ax.plot(*xy[k, [a, b]].T, color="0.5", lw=0.7)
         near = _two_hop(edges, n, 0)
-        ax.scatter(xy[k, :, 0], xy[k, :, 1], s=18, color="tab:blue", zorder=3)
+        ok = alive[k] & radio[k]
+        ax.scatter(xy[k, ok, 0], xy[k, ok, 1], s=18, color="tab:blue", zorder=3)
+        deaf = alive[k] & ~radio[k]
+        ax.scatter(xy[k, deaf, 0], xy[k, deaf, 1], s=22, color="0.6", zorder=3)
+        dead = ~alive[k]
+        ax.scatter(xy[k, dead, 0], xy[k, dead, 1], s=40, marker="x", color="k", zorder=4)
         ax.scatter(xy[k, near, 0], xy[k, near, 1], s=30, color="tab:orange", zorder=4)
         ax.scatter(xy[k, 0, 0], xy[k, 0, 1], s=70, color="red", edgecolors="k", zorder=5)
         ax.set_xlim(lo[0] - pad, hi[0] + pad)
@@ -68,6 +75,14 @@ def render_gif(result, max_frames: int = 60, fps: int = 8) -> bytes:
         loop=0,
     )
     return buf.getvalue()
+
+
+def _flags(result, name: str, s: int, n: int) -> np.ndarray:
+    """A per-robot boolean column of metrics.csv as (S, N); all true when absent."""
+    m = result.metrics
+    if name not in m:
+        return np.ones((s, n), dtype=bool)
+    return m[name].to_numpy(dtype=bool).reshape(-1, n)[:s]
 
 
 def _two_hop(edges: np.ndarray, n: int, i: int) -> np.ndarray:

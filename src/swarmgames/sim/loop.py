@@ -121,6 +121,10 @@ class StageLog:
     warmup_s: float = 0.0
 
 
+#: Per-robot columns of a decision, NaN for a robot that has crashed.
+DECISION_COLUMNS = ("payoff", "local_regret", "global_regret", "solve_ms", "integrate_ms")
+
+
 def _robot_columns(stage, n: int) -> dict[str, np.ndarray]:
     """The per-robot columns of ``metrics.csv`` from a :class:`StageSolution`; times are
     amortised over the robots."""
@@ -155,6 +159,7 @@ def run_stages(
     progress: Any = None,
     comms: Any = None,
     comms_rng: np.random.Generator | None = None,
+    faults: Any = None,
 ) -> StageLog:
     """Run ``n_stages`` stages and return the :class:`StageLog`.
 
@@ -176,6 +181,11 @@ def run_stages(
         per-robot measurements join ``per_robot``.
     comms_rng : numpy.random.Generator, optional
         The communication model's draws (losses, fading).
+    faults : Faults, optional
+        Crashes, radio failures and jamming (:mod:`swarmgames.sim.faults`); default: none.
+        A crashed robot holds its state (velocities zeroed) and its per-robot measures are
+        NaN; robots without a radio are out of everyone's range for the network and the
+        communication layer; the mission's metrics count the robots alive, where they are.
     """
     pos = np.array(states, dtype=float)
     n = pos.shape[0]
@@ -191,25 +201,42 @@ def run_stages(
 
         comms = IdealComms(getattr(controller, "hops", 1))
     comms.reset()
+    if faults is None:
+        from swarmgames.sim.faults import Faults
+
+        faults = Faults.none(n)
+    measured: dict[str, float] = {}
     try:
-        provider.reset(pos[:, :3], 0.0)
-        snap = provider.advance(warmup_s, pos[:, :3])
+        provider.reset(faults.network_positions(pos, faults.radio(0.0, pos)), 0.0)
+        snap = provider.advance(warmup_s, faults.network_positions(pos, faults.radio(0.0, pos)))
         for k in range(n_stages):
             t_stage = time.perf_counter()
             t = warmup_s + k * period_s
-            inbox, heard = comms.exchange(t, snap, pos, comms_rng)
+            alive, radio = faults.alive(t), faults.radio(t, pos)
+            inbox, heard = comms.exchange(t, snap, pos, comms_rng, active=radio)
             dec = controller.decide(snap, pos, rng, inbox=inbox)
             mean_h, max_h, n_comp, edges = swarm_graph_stats(snap)
-            measured = mission.swarm_metrics(pos, prev)
+            if alive.any():
+                measured = mission.swarm_metrics(pos[alive], None if prev is None else prev[alive])
+            else:  # nothing left to measure
+                measured = dict.fromkeys(measured, float("nan"))
             extra = robot_metrics(pos) if robot_metrics is not None else {}
-            new_pos = np.asarray(dec.next_states, dtype=float)
-            snap_next = provider.advance(t + period_s, new_pos[:, :3])
+            new_pos = np.array(dec.next_states, dtype=float)
+            new_pos[~alive] = pos[~alive]
+            new_pos[~alive, 3:] = 0.0  # a crashed robot stops
+            t_next = t + period_s
+            net_pos = faults.network_positions(new_pos, faults.radio(t_next, new_pos))
+            snap_next = provider.advance(t_next, net_pos)
             # A stage is recorded only once it is complete (Ctrl-C keeps whole stages).
             times.append(t)
             acts.append(np.asarray(dec.actions, dtype=np.int64))
-            for name, val in {**_robot_columns(dec, n), **heard.columns(), **extra}.items():
+            columns = {**_robot_columns(dec, n), **heard.columns(), **extra}
+            for name in DECISION_COLUMNS:  # a crashed robot decides nothing
+                columns[name] = np.where(alive, columns[name], np.nan)
+            columns.update(alive=alive, radio=radio)
+            for name, val in columns.items():
                 per_robot.setdefault(name, []).append(np.asarray(val))
-            row = {"mean_payoff": float(np.mean(dec.payoff)) if n else 0.0}
+            row = {"mean_payoff": _nanmean(np.where(alive, dec.payoff, np.nan))}
             row.update((name, float(v)) for name, v in measured.items())
             row.update(
                 mean_hops=mean_h,
@@ -220,6 +247,7 @@ def run_stages(
                 bytes_per_robot=float(
                     np.mean(heard.bytes_sent + heard.bytes_forwarded) if n else 0.0
                 ),
+                alive_robots=int(alive.sum()),
             )
             for name, val in row.items():
                 swarm.setdefault(name, []).append(val)

@@ -74,6 +74,8 @@ def plot_timeseries(result) -> Figure:
     net.plot(sw["t"], sw["components"], label="components")
     t, moving = _moving(result)
     net.plot(t, moving, label="moving robots", ls=":")
+    if "alive_robots" in sw and (sw["alive_robots"] < result.summary["n_robots"]).any():
+        net.plot(sw["t"], sw["alive_robots"], label="alive robots", ls="-.")
     if "oscillation" in sw:
         n = result.summary["n_robots"]
         net.plot(sw["t"], n * sw["oscillation"], label="oscillating robots", ls="--")

@@ -98,4 +98,5 @@ def comms_from_config(config, state_dim: int, provider: Any = None) -> IdealComm
         ge_good_to_bad=c.ge_good_to_bad,
         ge_bad_to_good=c.ge_bad_to_good,
         ge_loss_bad=c.ge_loss_bad,
+        gps_error_m=config.faults.gps_error_m,
     )

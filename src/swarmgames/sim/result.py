@@ -54,6 +54,15 @@ def _swarm(log) -> pd.DataFrame:
     return pd.DataFrame(cols)
 
 
+def _finite_median(values) -> float | None:
+    """Median of the finite values, or None (no stage, nothing finite)."""
+    if values is None:
+        return None
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    return float(np.median(v)) if v.size else None
+
+
 def _finite_mean(values) -> float | None:
     """Mean of the finite values, or None (no stage, or nothing finite)."""
     if values is None:
@@ -105,11 +114,11 @@ def summarise(log, config, mission, wall_s: float) -> dict[str, Any]:
         "moving_robots_last_stage": int(moving[-1].sum()) if s else 0,
         "mean_oscillation": float(np.mean(osc)) if len(osc) else None,
         "max_oscillation": float(np.max(osc)) if len(osc) else None,
-        "median_local_regret": float(np.median(lr)) if lr.size else None,
-        "fraction_local_regret_zero": float(np.mean(lr <= 1e-9)) if lr.size else None,
-        "median_global_regret": (
-            float(np.median(gr)) if gr.size and not np.isnan(gr).all() else None
+        "median_local_regret": _finite_median(lr),
+        "fraction_local_regret_zero": (
+            float(np.mean(lr[np.isfinite(lr)] <= 1e-9)) if np.isfinite(lr).any() else None
         ),
+        "median_global_regret": _finite_median(gr),
         "mean_hops_end": float(sw["mean_hops"][-1]) if s else None,
         "max_hops_end": int(sw["max_hops"][-1]) if s else None,
         "components_end": int(sw["components"][-1]) if s else None,
@@ -117,8 +126,12 @@ def summarise(log, config, mission, wall_s: float) -> dict[str, Any]:
         "mean_info_age_s": _finite_mean(pr.get("info_age_s")),
         "mean_fresh_fraction": _finite_mean(pr.get("fresh_fraction")),
         "bytes_per_robot_stage": _finite_mean(sw.get("bytes_per_robot")),
-        "median_solve_ms": float(np.median(pr["solve_ms"])) if s else None,
-        "median_integrate_ms": float(np.median(pr["integrate_ms"])) if s else None,
+        "robots_failed": int((~pr["alive"][-1]).sum()) if s and "alive" in pr else 0,
+        "robots_without_radio": (
+            int((pr["alive"][-1] & ~pr["radio"][-1]).sum()) if s and "radio" in pr else 0
+        ),
+        "median_solve_ms": _finite_median(pr.get("solve_ms")),
+        "median_integrate_ms": _finite_median(pr.get("integrate_ms")),
         "median_stage_ms": float(1e3 * np.median(log.stage_s)) if s else None,
         "wall_s": float(wall_s),
     }

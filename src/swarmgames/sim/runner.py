@@ -19,6 +19,7 @@ from swarmgames.config import ScenarioConfig
 from swarmgames.errors import ConfigError
 from swarmgames.missions import Mission, get_mission
 from swarmgames.sim.controllers import make_controller
+from swarmgames.sim.faults import Faults
 from swarmgames.sim.loop import run_stages
 from swarmgames.sim.progress import ProgressBar
 from swarmgames.sim.result import RunResult
@@ -102,9 +103,9 @@ def run(
     if out is not None and not isinstance(out, RunFolder):
         out = RunFolder(Path(out), force=force)
     t0 = time.perf_counter()
-    # Children 0-2 are those of runs before the communication layer (same draws).
-    seeds = np.random.SeedSequence(config.seed).spawn(4)
-    rng_start, rng_net, rng_game, rng_comms = (np.random.default_rng(s) for s in seeds)
+    # Children 0-2 are those of runs before the communication layer and faults (same draws).
+    seeds = np.random.SeedSequence(config.seed).spawn(5)
+    rng_start, rng_net, rng_game, rng_comms, rng_faults = (np.random.default_rng(s) for s in seeds)
     sw, sim = config.swarm, config.sim
     states = _initial_states(mission, sw.n_robots, rng_start)
     if provider is None:
@@ -130,6 +131,7 @@ def run(
             progress=tick,
             comms=comms,
             comms_rng=rng_comms,
+            faults=Faults.from_config(config.faults, sw.n_robots, rng_faults),
         )
     result = RunResult.from_log(log, config, mission, time.perf_counter() - t0)
     if out is not None:
