@@ -151,3 +151,14 @@ def test_annotated_toml_documents_units_and_ranges():
     text = to_toml(ScenarioConfig(), annotated=True)
     assert "# Transmit power, dBm (ns-3 WifiPhy default, 40 mW). [>= -30, <= 60]" in text
     assert "# nakagami_m =   (unset)" in text
+
+
+@pytest.mark.parametrize("name", [".", "..", ".config", "../x", "a/b", "a\\b", ""])
+def test_name_must_stay_inside_runs(name):
+    with pytest.raises(ConfigError, match=r"name: must be a folder name inside runs/"):
+        parse_config({"name": name})
+
+
+@pytest.mark.parametrize("name", ["coverage", "run.1", "a..b", "_x", "fig2-n10"])
+def test_ordinary_names_are_fine(name):
+    assert parse_config({"name": name}).name == name

@@ -25,6 +25,7 @@ References
 
 from __future__ import annotations
 
+import re
 from typing import Any, Literal
 
 from pydantic import Field, SerializeAsAny, field_validator, model_validator
@@ -43,6 +44,9 @@ __all__ = [
 ]
 
 _Section = Section
+
+#: A scenario name is a single folder name that cannot be ``.``, ``..`` or hidden.
+NAME_PATTERN = r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$"
 
 
 class RadioConfig(_Section):
@@ -305,8 +309,11 @@ class ScenarioConfig(_Section):
         "coverage",
         min_length=1,
         max_length=64,
-        pattern=r"^[A-Za-z0-9_.-]+$",
-        description="Scenario name; also the default run folder name.",
+        pattern=NAME_PATTERN,
+        description=(
+            "Scenario name; also the default run folder name, runs/<name>/: letters, digits, "
+            "'_', '.' and '-', not starting with '.' (so it cannot leave runs/ or be hidden)."
+        ),
     )
     scenario: str = Field(
         "coverage",
@@ -324,6 +331,17 @@ class ScenarioConfig(_Section):
     mission: SerializeAsAny[Section] = Field(
         default=None, description="The mission's own section (the table named by scenario)."
     )
+
+    @field_validator("name", mode="before")
+    @classmethod
+    def _folder_name(cls, value: Any) -> Any:
+        # Before the pattern, for a message that says why ("." and ".." leave runs/).
+        if isinstance(value, str) and not re.fullmatch(NAME_PATTERN, value):
+            raise ValueError(
+                "must be a folder name inside runs/: letters, digits, '_', '.' and '-', not "
+                f"starting with '.' (got {value!r})"
+            )
+        return value
 
     @field_validator("scenario")
     @classmethod
