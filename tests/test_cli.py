@@ -140,6 +140,50 @@ def test_run_with_invalid_override_creates_nothing(runner, tmp_path):
     assert not out.exists()
 
 
+def _failing_run(monkeypatch):
+    import swarmgames.sim
+
+    def fail(*args, **kwargs):
+        raise RuntimeError("the run broke")
+
+    monkeypatch.setattr(swarmgames.sim, "run", fail)
+
+
+def test_failed_run_keeps_the_users_empty_out_folder(runner, tmp_path, monkeypatch):
+    _failing_run(monkeypatch)
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    res = runner.invoke(cli, ["run", "--out", str(mine), "--no-progress"])
+    assert isinstance(res.exception, RuntimeError)
+    assert mine.is_dir()  # the user made it: a failed run never removes it
+
+
+def test_failed_run_removes_the_folders_it_created(runner, tmp_path, monkeypatch):
+    _failing_run(monkeypatch)
+    res = runner.invoke(cli, ["run", "--out", str(tmp_path / "a" / "b"), "--no-progress"])
+    assert isinstance(res.exception, RuntimeError)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("name", [".", "..", ".hidden"])
+def test_a_name_that_leaves_runs_is_rejected(runner, tmp_path, monkeypatch, name):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "s.toml").write_text(f'name = "{name}"\n')
+    res = runner.invoke(cli, ["run", "s.toml", "--no-progress"])
+    assert res.exit_code == 2
+    assert "name: must be a folder name inside runs/" in res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]  # nothing written
+
+
+def test_out_below_a_file_is_one_line(runner, tmp_path):
+    (tmp_path / "f").write_text("mine")
+    res = runner.invoke(cli, ["run", "--out", str(tmp_path / "f" / "run"), "--no-progress"])
+    assert res.exit_code == 2
+    assert res.output.startswith("Error: cannot write into output folder")
+    assert len(res.output.strip().splitlines()) == 1 and "Traceback" not in res.output
+    assert (tmp_path / "f").read_text() == "mine"
+
+
 def test_network_replay_and_compare(runner, tmp_path):
     res = runner.invoke(
         cli,

@@ -70,13 +70,6 @@ def _console():
     return Console()
 
 
-def _remove_if_empty(path: Path) -> None:
-    import contextlib
-
-    with contextlib.suppress(OSError):
-        path.rmdir()  # only succeeds on an empty folder
-
-
 def _open_run_folder(out: Path | None, default_name: str, force: bool):
     from swarmgames.runfolder import RunFolder
 
@@ -151,7 +144,7 @@ def run(
     try:
         result = run_mission(config, out=folder, progress=not no_progress and _interactive())
     except BaseException:
-        _remove_if_empty(folder.path)  # a run that failed before writing leaves no trace
+        folder.discard_if_empty()  # only the folders this run created, and only if empty
         raise
     _console().print(result.summary_table())
     click.echo(f"Wrote {len(folder.written)} files to {folder.path}/")
