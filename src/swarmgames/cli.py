@@ -1,7 +1,8 @@
 """The ``swarmgames`` command line: a thin layer over the Python API.
 
 Exit codes: 0 success, 1 the run failed (or the capability is not available), 2 usage or
-configuration error (bad option, invalid scenario file, unknown name, existing output folder).
+configuration error (bad option, invalid scenario file, unknown name, existing output folder),
+130 interrupted by Ctrl-C, SIGTERM or SIGHUP (a run keeps and writes its completed stages).
 """
 
 from __future__ import annotations
