@@ -124,6 +124,14 @@ class OlsrConfig(_Section):
             raise ValueError(f"must be one of the integers 0, 1, 3, 6, 7 (got {value!r})")
         return value
 
+    @field_validator("hello_only", mode="before")
+    @classmethod
+    def _hello_only_choice(cls, value: Any) -> Any:
+        # One line for the field, not one per alternative of the union.
+        if not (isinstance(value, bool) or value == "auto"):
+            raise ValueError(f"must be true, false or 'auto' (got {value!r})")
+        return value
+
     @model_validator(mode="after")
     def _holds_cover_intervals(self) -> OlsrConfig:
         if self.max_jitter_s >= self.hello_interval_s:
