@@ -140,6 +140,81 @@ def test_run_with_invalid_override_creates_nothing(runner, tmp_path):
     assert not out.exists()
 
 
+def _failing_run(monkeypatch):
+    import swarmgames.sim
+
+    def fail(*args, **kwargs):
+        raise RuntimeError("the run broke")
+
+    monkeypatch.setattr(swarmgames.sim, "run", fail)
+
+
+def test_failed_run_keeps_the_users_empty_out_folder(runner, tmp_path, monkeypatch):
+    _failing_run(monkeypatch)
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    res = runner.invoke(cli, ["run", "--out", str(mine), "--no-progress"])
+    assert isinstance(res.exception, RuntimeError)
+    assert mine.is_dir()  # the user made it: a failed run never removes it
+
+
+def test_failed_run_removes_the_folders_it_created(runner, tmp_path, monkeypatch):
+    _failing_run(monkeypatch)
+    res = runner.invoke(cli, ["run", "--out", str(tmp_path / "a" / "b"), "--no-progress"])
+    assert isinstance(res.exception, RuntimeError)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("name", [".", "..", ".hidden"])
+def test_a_name_that_leaves_runs_is_rejected(runner, tmp_path, monkeypatch, name):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "s.toml").write_text(f'name = "{name}"\n')
+    res = runner.invoke(cli, ["run", "s.toml", "--no-progress"])
+    assert res.exit_code == 2
+    assert "name: must be a folder name inside runs/" in res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]  # nothing written
+
+
+def test_out_below_a_file_is_one_line(runner, tmp_path):
+    (tmp_path / "f").write_text("mine")
+    res = runner.invoke(cli, ["run", "--out", str(tmp_path / "f" / "run"), "--no-progress"])
+    assert res.exit_code == 2
+    assert res.output.startswith("Error: cannot write into output folder")
+    assert len(res.output.strip().splitlines()) == 1 and "Traceback" not in res.output
+    assert (tmp_path / "f").read_text() == "mine"
+
+
+@pytest.mark.parametrize(
+    ("args", "line"),
+    [
+        (["config", "show", "--set", "sim.warmup_s=nan"], "sim.warmup_s: must be a finite number"),
+        (["config", "show", "--set", "swarm.n_robot=3"], "did you mean 'n_robots'?"),
+        (
+            ["run", "--set", "network.olsr.hello_interval_s=0.5"],
+            "network.olsr: max_jitter_s must be < hello_interval_s (got 0.5 >= 0.5)",
+        ),
+        (["run", "--set", "sim.warmup_s=1e12"], "sim.warmup_s: must be <= 1000000.0"),
+        (["config", "check", "nan.toml"], "network.radio.tx_power_dbm: must be a finite number"),
+        (["run", "latin1.toml"], "not UTF-8 text"),
+        (["config", "show", "folder.toml"], "it is a folder"),
+        (["network", "replay", "--positions", "latin1.csv"], "not UTF-8 text"),
+        (["network", "replay", "--positions", "huge.csv"], "column node: must be < 100000"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(runner, tmp_path, monkeypatch, args, line):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "nan.toml").write_text("[network.radio]\ntx_power_dbm = nan\n")
+    (tmp_path / "latin1.toml").write_bytes(b'name = "caf\xe9"\n')
+    (tmp_path / "folder.toml").mkdir()
+    (tmp_path / "latin1.csv").write_bytes(b"t,node,x,y,z\n0,0,\xff,0,0\n")
+    (tmp_path / "huge.csv").write_text("t,node,x,y,z\n0,0,0,0,0\n0,1000000000,0,0,0\n")
+    res = runner.invoke(cli, [*args, "--out", "o"] if args[0] != "config" else args)
+    assert res.exit_code == 2, res.output
+    assert res.output.startswith("Error: ") and line in res.output
+    assert len(res.output.strip().splitlines()) == 1 and "Traceback" not in res.output
+    assert not (tmp_path / "o").exists()
+
+
 def test_network_replay_and_compare(runner, tmp_path):
     res = runner.invoke(
         cli,

@@ -151,3 +151,122 @@ def test_annotated_toml_documents_units_and_ranges():
     text = to_toml(ScenarioConfig(), annotated=True)
     assert "# Transmit power, dBm (ns-3 WifiPhy default, 40 mW). [>= -30, <= 60]" in text
     assert "# nakagami_m =   (unset)" in text
+
+
+@pytest.mark.parametrize("name", [".", "..", ".config", "../x", "a/b", "a\\b", ""])
+def test_name_must_stay_inside_runs(name):
+    with pytest.raises(ConfigError, match=r"name: must be a folder name inside runs/"):
+        parse_config({"name": name})
+
+
+@pytest.mark.parametrize("name", ["coverage", "run.1", "a..b", "_x", "fig2-n10"])
+def test_ordinary_names_are_fine(name):
+    assert parse_config({"name": name}).name == name
+
+
+# ----------------------------------------------------------------------------- issue 13
+
+
+@pytest.mark.parametrize("value", [True, False, 1.0, 3.0])
+def test_willingness_is_never_coerced(value):
+    # A Literal of ints takes true as 1 even in strict JSON mode; the schema refuses it.
+    with pytest.raises(ConfigError, match=r"network\.olsr\.willingness: must be one of the int"):
+        parse_config({"network": {"olsr": {"willingness": value}}})
+
+
+@pytest.mark.parametrize("hello", [0.5, 0.25])
+def test_jitter_must_stay_below_the_hello_interval(hello):
+    # The default max_jitter_s = 0.5 made every run with hello_interval_s <= 0.5 crash in the
+    # OLSR model with a traceback; the rule is now the schema's, so config check sees it.
+    with pytest.raises(ConfigError, match=r"max_jitter_s must be < hello_interval_s"):
+        parse_config({"network": {"olsr": {"hello_interval_s": hello}}})
+
+
+def test_every_olsr_timing_the_schema_accepts_starts_the_model():
+    from swarmgames.network.olsr.provider import OlsrProvider
+    from swarmgames.network.parameters import OlsrParameters
+
+    olsr = {"hello_interval_s": 0.5, "max_jitter_s": 0.125, "neighbour_hold_s": 1.5}
+    cfg = parse_config({"network": {"olsr": olsr}}).network.olsr
+    params = OlsrParameters(**{k: getattr(cfg, k) for k in olsr})
+    assert OlsrProvider(3, olsr=params).olsr.hello_interval_s == 0.5
+
+
+@pytest.mark.parametrize("field", ["warmup_s", "duration_s"])
+def test_simulated_time_has_an_upper_bound(field):
+    # sim.warmup_s = 1e12 ran for 90 s and more without a word.
+    with pytest.raises(
+        ConfigError, match=rf"sim\.{field}: must be <= 1000000\.0 \(got 1000000000000\.0\)"
+    ):
+        parse_config({"sim": {field: 1e12}})
+
+
+def test_stage_count_has_an_upper_bound():
+    data = {"swarm": {"step_m": 1e-6}, "sim": {"control_period_s": 1e-6}}
+    with pytest.raises(ConfigError, match=r"must be <= 1e\+06 stages .*= 9e\+07"):
+        parse_config(data)
+
+
+@pytest.mark.parametrize("literal", ["nan", "inf", "-inf", "+inf"])
+def test_toml_nan_and_inf_are_one_line_naming_the_field(tmp_path, literal):
+    p = tmp_path / "s.toml"
+    p.write_text(f"[network.radio]\ntx_power_dbm = {literal}\n")
+    with pytest.raises(ConfigError, match=r"network\.radio\.tx_power_dbm: must be a finite"):
+        load_config(p)
+    with pytest.raises(ConfigError) as info:
+        resolve_scenario(None, [f"network.radio.tx_power_dbm={literal}"])
+    assert len(info.value.errors) == 1
+    assert info.value.errors[0].startswith("network.radio.tx_power_dbm: must be a finite number")
+
+
+def test_non_utf8_scenario_file_is_one_line(tmp_path):
+    p = tmp_path / "s.toml"
+    p.write_bytes(b'name = "caf\xe9"\n')
+    for read in (load_config, resolve_scenario):
+        with pytest.raises(ConfigError, match=r"not UTF-8 text \(byte 0xe9 at offset 11\)"):
+            read(p)
+
+
+def test_folder_as_scenario_file_is_one_line(tmp_path):
+    d = tmp_path / "s.toml"
+    d.mkdir()
+    for read in (load_config, resolve_scenario):
+        with pytest.raises(ConfigError, match=r"cannot read configuration file .*: it is a folder"):
+            read(d)
+
+
+def test_unreadable_scenario_file_is_one_line(tmp_path, monkeypatch):
+    # chmod 000 does not stop root; the error it would raise does the same here.
+    from pathlib import Path
+
+    p = tmp_path / "s.toml"
+    p.write_text("seed = 1\n")
+
+    def refuse(self, *args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(Path, "read_text", refuse)
+    for read in (load_config, resolve_scenario):
+        with pytest.raises(ConfigError, match=r"cannot read configuration file .*: Permission"):
+            read(p)
+
+
+def test_unknown_field_suggests_the_closest():
+    with pytest.raises(ConfigError) as info:
+        parse_config(
+            {"swarm": {"n_robot": 7}, "coverag": {}, "network": {"olsr": {"hello_intervall": 1}}}
+        )
+    assert sorted(info.value.errors) == [
+        "coverag: is not a known field; did you mean 'coverage'? (got {})",
+        "network.olsr.hello_intervall: is not a known field; did you mean "
+        "'hello_interval_s'? (got 1)",
+        "swarm.n_robot: is not a known field; did you mean 'n_robots'? (got 7)",
+    ]
+
+
+def test_mission_field_suggestion_and_no_suggestion_when_nothing_is_close():
+    with pytest.raises(ConfigError, match=r"coverage\.grid_cel_m: .*did you mean 'grid_cell_m'\?"):
+        parse_config({"coverage": {"grid_cel_m": 3.0}})
+    with pytest.raises(ConfigError) as info:
+        parse_config({"swarm": {"zzzz": 1}})
+    assert info.value.errors == ["swarm.zzzz: is not a known field (got 1)"]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import pandas as pd
 import pytest
 
@@ -84,3 +86,81 @@ def test_files_get_ordinary_permissions(tmp_path):
     finally:
         os.umask(mask)
     assert stat.S_IMODE(p.stat().st_mode) == 0o644
+
+
+def test_leftover_temporary_file_does_not_block_a_rerun(tmp_path):
+    # What kill -9 during atomic_open leaves behind: mkstemp's ".<name>.<random>.tmp".
+    leftover = tmp_path / ".trajectory.csv.k3j9x2ab.tmp"
+    leftover.write_text("t,x\n0,")
+    RunFolder(tmp_path).write_text("a.txt", "a")  # counts as empty
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt"]  # and is cleaned up
+
+
+def test_leftover_is_removed_when_reused_with_force(tmp_path):
+    (tmp_path / "old.txt").write_text("keep me")
+    (tmp_path / ".summary.json.abc.tmp").write_text("{")
+    with pytest.raises(RunFolderError, match="not empty"):
+        RunFolder(tmp_path)
+    RunFolder(tmp_path, force=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.txt"]
+
+
+def test_an_ordinary_hidden_file_still_counts(tmp_path):
+    (tmp_path / ".notes").write_text("mine")
+    with pytest.raises(RunFolderError, match="not empty"):
+        RunFolder(tmp_path)
+
+
+def test_discard_removes_only_the_folders_it_created(tmp_path):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    RunFolder(mine).discard_if_empty()
+    assert mine.is_dir()  # existed before: kept although empty
+    run = RunFolder(tmp_path / "a" / "b")
+    assert run.created == [tmp_path / "a", tmp_path / "a" / "b"]
+    run.discard_if_empty()
+    assert not (tmp_path / "a").exists()
+
+
+def test_discard_keeps_a_folder_with_files(tmp_path):
+    run = RunFolder(tmp_path / "r")
+    run.write_text("a.txt", "a")
+    run.discard_if_empty()
+    assert (tmp_path / "r" / "a.txt").exists()
+
+
+def test_folder_below_a_file_is_one_error(tmp_path):
+    (tmp_path / "f").write_text("")
+    with pytest.raises(RunFolderError, match=r"cannot write into output folder .*f[/\\]run"):
+        RunFolder(tmp_path / "f" / "run")
+
+
+@pytest.mark.skipif(
+    not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root writes into read-only folders"
+)
+def test_read_only_place_is_one_error(tmp_path):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        with pytest.raises(RunFolderError, match="cannot write into output folder"):
+            RunFolder(ro / "run")
+        with pytest.raises(RunFolderError, match="cannot write into output folder"):
+            RunFolder(ro)  # exists and is empty, but nothing can be written there
+    finally:
+        ro.chmod(0o755)
+
+
+def test_unwritable_folder_is_one_error(tmp_path, monkeypatch):
+    # The read-only case as root sees it too: whatever stops the probe file is reported.
+    import swarmgames.runfolder as runfolder
+
+    def refuse(folder):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(runfolder, "_check_writable", refuse)
+    with pytest.raises(
+        RunFolderError, match=r"cannot write into output folder .*Permission denied"
+    ):
+        RunFolder(tmp_path / "new" / "run")
+    assert not (tmp_path / "new").exists()  # what it created for nothing is gone again

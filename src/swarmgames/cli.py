@@ -1,7 +1,8 @@
 """The ``swarmgames`` command line: a thin layer over the Python API.
 
 Exit codes: 0 success, 1 the run failed (or the capability is not available), 2 usage or
-configuration error (bad option, invalid scenario file, unknown name, existing output folder).
+configuration error (bad option, invalid scenario file, unknown name, existing output folder),
+130 interrupted by Ctrl-C, SIGTERM or SIGHUP (a run keeps and writes its completed stages).
 """
 
 from __future__ import annotations
@@ -68,13 +69,6 @@ def _console():
     from rich.console import Console
 
     return Console()
-
-
-def _remove_if_empty(path: Path) -> None:
-    import contextlib
-
-    with contextlib.suppress(OSError):
-        path.rmdir()  # only succeeds on an empty folder
 
 
 def _open_run_folder(out: Path | None, default_name: str, force: bool):
@@ -151,7 +145,7 @@ def run(
     try:
         result = run_mission(config, out=folder, progress=not no_progress and _interactive())
     except BaseException:
-        _remove_if_empty(folder.path)  # a run that failed before writing leaves no trace
+        folder.discard_if_empty()  # only the folders this run created, and only if empty
         raise
     _console().print(result.summary_table())
     click.echo(f"Wrote {len(folder.written)} files to {folder.path}/")

@@ -41,7 +41,8 @@ class InputDataError(SwarmgamesError, ValueError):
 
 
 class RunFolderError(SwarmgamesError, FileExistsError):
-    """The output folder exists and is not empty, and ``force`` was not given."""
+    """The output folder cannot be used: it exists and is not empty and ``force`` was not
+    given, it is a file, or it cannot be created or written into."""
 
 
 class BackendUnavailableError(SwarmgamesError, ImportError):

@@ -3,7 +3,9 @@
 A run folder holds the resolved ``config.toml``, data as CSV, figures as PNG and a
 ``summary.json``. Each file is written to a temporary file in the same folder, flushed,
 ``fsync``-ed and renamed over its final name (``os.replace`` is atomic on POSIX and Windows), so
-an interrupted run leaves complete files or none, never a half-written one.
+an interrupted run leaves complete files or none, never a half-written one. A process killed
+while writing (``kill -9``) can leave its temporary file, ``.<name>.<random>.tmp``: such a
+leftover never makes a folder count as "not empty", and is removed when the folder is reused.
 """
 
 from __future__ import annotations
@@ -59,6 +61,21 @@ def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO
         raise
 
 
+def _is_leftover(p: Path) -> bool:
+    """Whether ``p`` is a temporary file of :func:`atomic_open` (``.<name>.<random>.tmp``),
+    left behind by a process killed while writing."""
+    name = p.name
+    return name.startswith(".") and name.endswith(".tmp") and name.count(".") >= 3 and p.is_file()
+
+
+def _check_writable(folder: Path) -> None:
+    """Create and remove a temporary file in ``folder``: raises OSError where the run could
+    not write its files (read-only file system, no permission), before any work is done."""
+    fd, probe = tempfile.mkstemp(prefix=".probe.", suffix=".tmp", dir=folder)
+    os.close(fd)
+    os.unlink(probe)
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
@@ -89,10 +106,20 @@ class RunFolder:
     force : bool, default False
         Allow writing into an existing, non-empty folder (files of the same name are replaced).
 
+    Attributes
+    ----------
+    created : list of Path
+        The folders this RunFolder created (``path`` and any missing parents, outermost
+        first); empty when ``path`` existed. :meth:`discard_if_empty` removes only these.
+    written : list of Path
+        The files written so far, in order.
+
     Raises
     ------
     RunFolderError
-        If ``path`` exists, is not empty and ``force`` is false, or is not a folder.
+        If ``path`` exists, is not empty (temporary files left by a killed write do not count)
+        and ``force`` is false; is not a folder; or cannot be created or written into (below
+        a file, read-only, no permission).
 
     Examples
     --------
@@ -107,13 +134,41 @@ class RunFolder:
         if self.path.exists():
             if not self.path.is_dir():
                 raise RunFolderError(f"output path {self.path} exists and is not a folder")
-            if any(self.path.iterdir()) and not force:
+            if any(not _is_leftover(p) for p in self._entries()) and not force:
                 raise RunFolderError(
                     f"output folder {self.path} is not empty; use --force (force=True) to "
                     "write into it, or choose another --out"
                 )
-        self.path.mkdir(parents=True, exist_ok=True)
+        self.created = [p for p in (*reversed(self.path.parents), self.path) if not p.exists()]
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+            _check_writable(self.path)
+        except OSError as exc:
+            self.discard_if_empty()
+            why = exc.strerror or type(exc).__name__
+            raise RunFolderError(f"cannot write into output folder {self.path}: {why}") from None
+        for p in self._entries():
+            if _is_leftover(p):
+                with contextlib.suppress(OSError):
+                    p.unlink()
         self.written: list[Path] = []
+
+    def _entries(self) -> list[Path]:
+        try:
+            return list(self.path.iterdir())
+        except OSError as exc:
+            why = exc.strerror or type(exc).__name__
+            raise RunFolderError(f"cannot read output folder {self.path}: {why}") from None
+
+    def discard_if_empty(self) -> None:
+        """Remove the folders this RunFolder created, innermost first, as far as they are
+        empty (a run that failed before writing leaves no trace). A folder that existed
+        before is never removed."""
+        for p in reversed(self.created):
+            try:
+                p.rmdir()  # only succeeds on an empty folder
+            except OSError:
+                return
 
     def __repr__(self) -> str:
         return f"RunFolder({str(self.path)!r})"

@@ -15,7 +15,8 @@ __all__ = ["Section"]
 
 
 class Section(BaseModel):
-    """A configuration section: immutable, strict about unknown keys, defaults validated.
+    """A configuration section: immutable, strict about unknown keys, defaults validated,
+    every float finite (NaN and infinities are rejected, in tuples and optional fields too).
 
     Examples
     --------
@@ -26,4 +27,6 @@ class Section(BaseModel):
     10.0
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    model_config = ConfigDict(
+        extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False
+    )

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import subprocess
 import sys
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -339,7 +341,9 @@ def test_an_installed_plugin_is_found_by_every_command(tmp_path):
         'name = "hover"\nscenario = "hover"\n[swarm]\nn_robots = 3\nstart_center_m = [100.0, 0.0]'
         "\n[sim]\nduration_s = 6.0\nanimation = false\n[hover]\nweight = 2.0\n"
     )
-    env = {**__import__("os").environ, "PYTHONPATH": str(tmp_path)}
+    # The plug-in's folder first, then the swarmgames under test (not whichever is installed).
+    tree = str(Path(swarmgames.__file__).resolve().parents[1])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), tree])}
 
     def cli(*args):
         return subprocess.run(

@@ -67,7 +67,7 @@ def test_missing_file():
 
 
 def test_empty_file(tmp_path):
-    with pytest.raises(InputDataError, match="not a readable CSV"):
+    with pytest.raises(InputDataError, match="empty file; expected a header t,node,x,y,z"):
         read_positions(_write(tmp_path, ""))
 
 
@@ -101,3 +101,60 @@ def test_position_at_is_the_nodes_latest_row(rows, query):
     for node in range(n):
         t_last = max(t for (k, t) in data if k == node and t <= query)
         assert got[node].tolist() == [*data[(node, t_last)], 1.0]
+
+
+# Bounds checked before any array is sized by a value of the file (issue 13: a node id of
+# 10^9 or a row at t = 10^12 asked for gigabytes).
+
+
+def test_huge_node_id_names_the_column_the_value_and_the_bound(tmp_path):
+    text = "t,node,x,y,z\n0,0,0,0,0\n0,1000000000,0,0,0\n"
+    with pytest.raises(
+        InputDataError, match=r"line 3, column node: must be < 100000, .*\(got 1000000000\)"
+    ):
+        read_positions(_write(tmp_path, text))
+
+
+def test_large_node_id_with_gaps_is_found_without_an_id_sized_array(tmp_path):
+    text = "t,node,x,y,z\n0,0,0,0,0\n0,99999,0,0,0\n"
+    with pytest.raises(InputDataError, match=r"numbered 0\.\.99999 without gaps \(node 1 has"):
+        read_positions(_write(tmp_path, text))
+
+
+def test_far_future_time_names_the_column_the_value_and_the_bound(tmp_path):
+    text = "t,node,x,y,z\n0,0,0,0,0\n1e12,0,1,0,0\n"
+    with pytest.raises(
+        InputDataError, match=r"line 3, column t: must be <= 1e\+06 s, .*\(got 1000000000000\.0\)"
+    ):
+        read_positions(_write(tmp_path, text))
+
+
+def test_dense_positions_over_the_limit_are_refused(tmp_path, monkeypatch):
+    import swarmgames.network.trace as trace
+
+    monkeypatch.setattr(trace, "MAX_TRACE_VALUES", 5)  # 2 times x 2 nodes x 3 = 12 values
+    with pytest.raises(InputDataError, match=r"2 distinct times x 2 nodes would hold .* GiB"):
+        read_positions(_write(tmp_path, GOOD))
+
+
+def test_non_utf8_file_is_one_line(tmp_path):
+    p = tmp_path / "positions.csv"
+    p.write_bytes(b"t,node,x,y,z\n0,0,0,0,0\n0,1,\xff,0,0\n")
+    with pytest.raises(InputDataError, match=r"not UTF-8 text \(byte 0xff\)") as info:
+        read_positions(p)
+    assert "\n" not in str(info.value)
+
+
+def test_folder_is_one_line(tmp_path):
+    with pytest.raises(InputDataError, match=r"cannot read positions file .*: it is a folder"):
+        read_positions(tmp_path)
+
+
+def test_unreadable_file_is_one_line(tmp_path, monkeypatch):
+    # chmod 000 does not stop root; the error it would raise does the same here.
+    def refuse(*args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(pd, "read_csv", refuse)
+    with pytest.raises(InputDataError, match=r"cannot read positions file .*: Permission denied"):
+        read_positions(_write(tmp_path, GOOD))

@@ -60,6 +60,8 @@ def _rule(err: dict[str, Any]) -> str:
     }
     if kind in bounds:
         return f"must be {bounds[kind]} {next(iter(ctx.values()))}"
+    if kind == "finite_number":
+        return "must be a finite number"
     if kind == "extra_forbidden":
         return "is not a known field"
     if kind == "missing":
@@ -69,15 +71,42 @@ def _rule(err: dict[str, Any]) -> str:
     return err["msg"][0].lower() + err["msg"][1:]
 
 
-def _error_lines(exc: ValidationError, mission: str | None = None) -> list[str]:
-    """One line per problem; a path into ``mission`` is shown under the mission's name."""
+def _known_fields(model: type[BaseModel] | None, loc: list[Any]) -> list[str]:
+    """The field names of the section at ``loc`` inside ``model`` ([] where unknown)."""
+    for part in loc:
+        info = model.model_fields.get(str(part)) if model is not None else None
+        model = info.annotation if info is not None else None
+        if not (isinstance(model, type) and issubclass(model, BaseModel)):
+            return []
+    return list(model.model_fields) if model is not None else []
+
+
+def _did_you_mean(name: str, known: list[str]) -> str:
+    import difflib
+
+    close = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
+def _error_lines(
+    exc: ValidationError,
+    mission: str | None = None,
+    model: type[BaseModel] | None = None,
+) -> list[str]:
+    """One line per problem; a path into ``mission`` is shown under the mission's name. An
+    unknown key of ``model`` (or of its sections) gets the closest known field suggested."""
     lines = []
     for err in exc.errors():
         loc = list(err["loc"])
+        rule = _rule(err)
+        if err["type"] == "extra_forbidden" and loc:
+            known = _known_fields(model, loc[:-1])
+            if model is ScenarioConfig and len(loc) == 1:
+                known = [k for k in known if k != "mission"] + ([mission] if mission else [])
+            rule += _did_you_mean(str(loc[-1]), known)
         if mission and loc and loc[0] == "mission":
             loc[0] = mission
         path = ".".join(str(p) for p in loc)
-        rule = _rule(err)
         if err["type"] == "value_error" and "(got" in rule:
             lines.append(f"{path}: {rule}" if path else rule)
         else:
@@ -145,13 +174,13 @@ def parse_config(data: dict[str, Any] | None = None, source: str | None = None) 
                 section.model_validate_json(_json(table), strict=True)
                 data["mission"] = table
             except ValidationError as exc:
-                lines += [f"{name}.{line}" for line in _error_lines(exc)]
+                lines += [f"{name}.{line}" for line in _error_lines(exc, model=section)]
     try:
         # JSON mode in strict mode: no silent coercion ("7" is not an int), yet TOML arrays
         # are accepted where a tuple is declared.
         config = ScenarioConfig.model_validate_json(_json(data), strict=True)
     except ValidationError as exc:
-        lines += _error_lines(exc, name if isinstance(name, str) else None)
+        lines += _error_lines(exc, name if isinstance(name, str) else None, ScenarioConfig)
     if lines:
         raise _config_error(lines, source)
     return config
@@ -169,17 +198,30 @@ def load_config(path: str | Path) -> ScenarioConfig:
     5
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"configuration file not found: {path}") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read configuration file {path}: {exc}") from None
+    text = _read_file(path)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path} is not valid TOML: {exc}") from None
     return parse_config(data, source=str(path))
+
+
+def _read_file(path: Path) -> str:
+    """The text of a scenario file; one ConfigError line for whatever stops reading it."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"configuration file not found: {path}") from None
+    except IsADirectoryError:
+        raise ConfigError(f"cannot read configuration file {path}: it is a folder") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(
+            f"cannot read configuration file {path}: not UTF-8 text (byte "
+            f"{exc.object[exc.start]:#04x} at offset {exc.start}); TOML files are UTF-8"
+        ) from None
+    except OSError as exc:
+        why = exc.strerror or type(exc).__name__
+        raise ConfigError(f"cannot read configuration file {path}: {why}") from None
 
 
 def builtin_scenarios() -> list[str]:
@@ -244,9 +286,7 @@ def resolve_scenario(
     scenario = "coverage" if scenario is None else scenario
     path = Path(scenario)
     if path.suffix == ".toml" or path.exists():
-        if not path.is_file():
-            raise ConfigError(f"configuration file not found: {path}")
-        source, text = str(path), path.read_text(encoding="utf-8")
+        source, text = str(path), _read_file(path)
     else:
         names = builtin_scenarios()
         if str(scenario) not in names:

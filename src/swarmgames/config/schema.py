@@ -25,6 +25,7 @@ References
 
 from __future__ import annotations
 
+import re
 from typing import Any, Literal
 
 from pydantic import Field, SerializeAsAny, field_validator, model_validator
@@ -45,6 +46,16 @@ __all__ = [
 ]
 
 _Section = Section
+
+#: Longest simulated time of a run, warm-up or mission, seconds (11.6 days): the network
+#: simulates every message of it, so 1e12 s would run for ever without a word.
+MAX_SIM_TIME_S = 1e6
+
+#: Most stages of a run: every stage's states and metrics are kept in memory.
+MAX_STAGES = 1_000_000
+
+#: A scenario name is a single folder name that cannot be ``.``, ``..`` or hidden.
+NAME_PATTERN = r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$"
 
 
 class RadioConfig(_Section):
@@ -85,7 +96,9 @@ class OlsrConfig(_Section):
     hello_interval_s: float = Field(2.0, gt=0, description="HELLO emission interval, seconds.")
     tc_interval_s: float = Field(5.0, gt=0, description="TC emission interval, seconds.")
     max_jitter_s: float = Field(
-        0.5, ge=0, description="Upper bound of the uniform message jitter, seconds."
+        0.5,
+        ge=0,
+        description="Upper bound of the uniform message jitter; below hello_interval_s, seconds.",
     )
     neighbour_hold_s: float = Field(
         6.0, gt=0, description="Neighbour/link hold time (3 x HELLO interval), seconds."
@@ -105,8 +118,31 @@ class OlsrConfig(_Section):
         ),
     )
 
+    @field_validator("willingness", mode="before")
+    @classmethod
+    def _willingness_is_an_integer(cls, value: Any) -> Any:
+        # A Literal of ints takes true as 1 and 1.0 as 1, even in strict mode.
+        if isinstance(value, (bool, float)):
+            raise ValueError(f"must be one of the integers 0, 1, 3, 6, 7 (got {value!r})")
+        return value
+
+    @field_validator("hello_only", mode="before")
+    @classmethod
+    def _hello_only_choice(cls, value: Any) -> Any:
+        # One line for the field, not one per alternative of the union.
+        if not (isinstance(value, bool) or value == "auto"):
+            raise ValueError(f"must be true, false or 'auto' (got {value!r})")
+        return value
+
     @model_validator(mode="after")
     def _holds_cover_intervals(self) -> OlsrConfig:
+        if self.max_jitter_s >= self.hello_interval_s:
+            # Each HELLO round must be on the air before the next one is built (ns-3 uses a
+            # quarter of the HELLO interval); the OLSR model refuses to start otherwise.
+            raise ValueError(
+                "max_jitter_s must be < hello_interval_s "
+                f"(got {self.max_jitter_s} >= {self.hello_interval_s})"
+            )
         if self.neighbour_hold_s <= self.hello_interval_s:
             raise ValueError(
                 "neighbour_hold_s must be > hello_interval_s "
@@ -367,9 +403,23 @@ class SimConfig(_Section):
     control_period_s: float = Field(
         1.0, gt=0, description="Time between two stage games, seconds (paper: 1 Hz)."
     )
-    duration_s: float = Field(90.0, gt=0, description="Simulated mission time, seconds.")
+    duration_s: float = Field(
+        90.0,
+        gt=0,
+        le=MAX_SIM_TIME_S,
+        description=(
+            "Simulated mission time; at most 1e6 s (11.6 days: the network simulates every "
+            "message of it, and every stage is kept in memory), seconds."
+        ),
+    )
     warmup_s: float = Field(
-        10.0, ge=0, description="Network time before the first stage (OLSR start-up), seconds."
+        10.0,
+        ge=0,
+        le=MAX_SIM_TIME_S,
+        description=(
+            "Network time before the first stage (OLSR start-up); at most 1e6 s (the network "
+            "simulates every message of it before the first stage), seconds."
+        ),
     )
     controller: Literal["game", "lloyd"] = Field(
         "game",
@@ -415,8 +465,11 @@ class ScenarioConfig(_Section):
         "coverage",
         min_length=1,
         max_length=64,
-        pattern=r"^[A-Za-z0-9_.-]+$",
-        description="Scenario name; also the default run folder name.",
+        pattern=NAME_PATTERN,
+        description=(
+            "Scenario name; also the default run folder name, runs/<name>/: letters, digits, "
+            "'_', '.' and '-', not starting with '.' (so it cannot leave runs/ or be hidden)."
+        ),
     )
     scenario: str = Field(
         "coverage",
@@ -436,6 +489,17 @@ class ScenarioConfig(_Section):
     mission: SerializeAsAny[Section] = Field(
         default=None, description="The mission's own section (the table named by scenario)."
     )
+
+    @field_validator("name", mode="before")
+    @classmethod
+    def _folder_name(cls, value: Any) -> Any:
+        # Before the pattern, for a message that says why ("." and ".." leave runs/).
+        if isinstance(value, str) and not re.fullmatch(NAME_PATTERN, value):
+            raise ValueError(
+                "must be a folder name inside runs/: letters, digits, '_', '.' and '-', not "
+                f"starting with '.' (got {value!r})"
+            )
+        return value
 
     @field_validator("scenario")
     @classmethod
@@ -479,6 +543,13 @@ class ScenarioConfig(_Section):
             raise ValueError(
                 "sim.duration_s must be >= sim.control_period_s "
                 f"(got {sim.duration_s} < {sim.control_period_s})"
+            )
+        stages = sim.duration_s / sim.control_period_s
+        if stages > MAX_STAGES:
+            raise ValueError(
+                f"sim.duration_s / sim.control_period_s must be <= {MAX_STAGES:.0e} stages "
+                "(every stage is kept in memory) "
+                f"(got {sim.duration_s} s / {sim.control_period_s} s = {stages:.3g})"
             )
         if self.comms.model == "routed" and self.comms.decide_after_s >= sim.control_period_s:
             raise ValueError(

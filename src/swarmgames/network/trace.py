@@ -18,6 +18,21 @@ __all__ = ["PositionTrace", "read_positions"]
 
 _COLUMNS = ("t", "node", "x", "y", "z")
 
+#: Largest node count of a trace (the schema's swarm.n_robots limit): node ids index arrays.
+MAX_TRACE_NODES = 100_000
+
+#: Latest time of a trace, seconds (the schema's sim.duration_s limit, 11.6 days): replay
+#: samples and simulates the network over the whole span.
+MAX_TRACE_TIME_S = 1e6
+
+#: Largest dense position table (distinct times x nodes x 3 values of 8 bytes: 2 GiB).
+MAX_TRACE_VALUES = 2**28
+
+
+def _cell(value: object) -> object:
+    """A cell of the file as the user wrote it (a Python scalar, not a numpy one)."""
+    return value.item() if hasattr(value, "item") else value
+
 
 @dataclass(frozen=True, eq=False)
 class PositionTrace:
@@ -76,7 +91,7 @@ class PositionTrace:
                 k = int(np.flatnonzero(bad)[0])
                 raise InputDataError(
                     f"{source}: line {line[k]}, column {col}: must be a finite number "
-                    f"(got {df[col].iloc[k]!r})"
+                    f"(got {_cell(df[col].iloc[k])!r})"
                 )
             values[col] = v
         t, node = values["t"], values["node"]
@@ -85,18 +100,33 @@ class PositionTrace:
             k = int(np.flatnonzero(bad)[0])
             raise InputDataError(
                 f"{source}: line {line[k]}, column node: must be an integer >= 0 "
-                f"(got {df['node'].iloc[k]!r})"
+                f"(got {_cell(df['node'].iloc[k])!r})"
             )
         if (t < 0).any():
             k = int(np.flatnonzero(t < 0)[0])
             raise InputDataError(f"{source}: line {line[k]}, column t: must be >= 0 (got {t[k]})")
+        if (t > MAX_TRACE_TIME_S).any():
+            k = int(np.flatnonzero(t > MAX_TRACE_TIME_S)[0])
+            raise InputDataError(
+                f"{source}: line {line[k]}, column t: must be <= {MAX_TRACE_TIME_S:g} s, the "
+                f"longest span the network layer simulates (got {_cell(df['t'].iloc[k])!r})"
+            )
+        if (node >= MAX_TRACE_NODES).any():
+            k = int(np.flatnonzero(node >= MAX_TRACE_NODES)[0])
+            raise InputDataError(
+                f"{source}: line {line[k]}, column node: must be < {MAX_TRACE_NODES}, the most "
+                f"robots a swarm may have (got {_cell(df['node'].iloc[k])!r})"
+            )
         node = node.astype(np.int64)
-        n = int(node.max()) + 1
-        absent = np.setdiff1d(np.arange(n), node)
-        if absent.size:
+        # Gaps from the distinct ids (at most one per row), not from an array as long as the
+        # largest id.
+        ids = np.unique(node)
+        n = int(ids[-1]) + 1
+        if ids.size != n:
+            absent = int(np.flatnonzero(ids != np.arange(ids.size))[0])
             raise InputDataError(
                 f"{source}: nodes must be numbered 0..{n - 1} without gaps "
-                f"(node {int(absent[0])} has no row)"
+                f"(node {absent} has no row)"
             )
         # Per node, times must strictly increase in file order.
         order = np.lexsort((np.arange(node.size), node))
@@ -125,6 +155,12 @@ class PositionTrace:
                 f"(its first row is at t = {first[late[0]]})"
             )
         times = np.unique(t)
+        if times.size * n * 3 > MAX_TRACE_VALUES:
+            raise InputDataError(
+                f"{source}: {times.size} distinct times x {n} nodes would hold "
+                f"{times.size * n * 3 * 8 / 2**30:.1f} GiB of positions (at most "
+                f"{MAX_TRACE_VALUES * 8 / 2**30:g} GiB); give the nodes common sample times"
+            )
         xyz = np.c_[values["x"], values["y"], values["z"]]
         # Fill forward: position of every node at every event time.
         k_of_row = np.searchsorted(times, t)
@@ -143,16 +179,33 @@ def read_positions(path: str | Path) -> PositionTrace:
     Raises
     ------
     InputDataError
-        If the file is missing or unreadable, a column is missing, a value is NaN / infinite /
-        not a number, a time is negative, a node has duplicate rows or decreasing times, nodes
-        are not numbered ``0..N-1``, or a node has no row at the first time. The message names
-        the line (header = line 1) and column.
+        If the file is missing, a folder, unreadable, empty or not UTF-8, a column is missing,
+        a value is NaN / infinite / not a number, a time is negative or after
+        :data:`MAX_TRACE_TIME_S`, a node id is not below
+        :data:`MAX_TRACE_NODES`, a node has duplicate rows or decreasing times, nodes are not
+        numbered ``0..N-1``, a node has no row at the first time, or the dense positions would
+        exceed :data:`MAX_TRACE_VALUES`. The message names the line (header = line 1) and
+        column.
     """
     path = Path(path)
     try:
         frame = pd.read_csv(path, skipinitialspace=True)
     except FileNotFoundError:
         raise InputDataError(f"positions file not found: {path}") from None
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise InputDataError(f"{path}: not a readable CSV file: {exc}") from None
+    except IsADirectoryError:
+        raise InputDataError(f"cannot read positions file {path}: it is a folder") from None
+    except pd.errors.EmptyDataError:
+        raise InputDataError(
+            f"{path}: empty file; expected a header {','.join(_COLUMNS)} and rows"
+        ) from None
+    except UnicodeDecodeError as exc:
+        raise InputDataError(
+            f"{path}: not UTF-8 text (byte {exc.object[exc.start]:#04x}); CSV traces are UTF-8"
+        ) from None
+    except pd.errors.ParserError as exc:
+        why = " ".join(str(exc).split())  # pandas' message may span lines
+        raise InputDataError(f"{path}: not a readable CSV file: {why}") from None
+    except OSError as exc:
+        why = exc.strerror or type(exc).__name__
+        raise InputDataError(f"cannot read positions file {path}: {why}") from None
     return PositionTrace.from_frame(frame, source=str(path))

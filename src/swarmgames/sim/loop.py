@@ -12,8 +12,9 @@ One stage at time :math:`t_k = t_{warm} + k\\,\\Delta t`:
    and the loop measures the network and the oscillation (:func:`oscillation`);
 5. the actions are applied; the new states hold until the next stage.
 
-Ctrl-C (``KeyboardInterrupt``) between or during stages stops the loop cleanly: the completed
-stages are kept and returned with ``interrupted = True``.
+Ctrl-C (``KeyboardInterrupt``; :func:`swarmgames.run` turns SIGTERM and SIGHUP into it too)
+between or during stages stops the loop cleanly: the completed stages are kept and returned
+with ``interrupted = True``.
 
 References
 ----------

@@ -23,6 +23,7 @@ from swarmgames.sim.faults import Faults
 from swarmgames.sim.loop import run_stages
 from swarmgames.sim.progress import ProgressBar
 from swarmgames.sim.result import RunResult
+from swarmgames.sim.signals import signals_interrupt
 
 __all__ = ["build_mission", "run"]
 
@@ -77,8 +78,9 @@ def run(
     Returns
     -------
     RunResult
-        Tables (``.to_frame()``), plots (``.plot()``), ``.summary``. If Ctrl-C stopped the run,
-        ``.interrupted`` is true and the completed stages are kept (and written).
+        Tables (``.to_frame()``), plots (``.plot()``), ``.summary``. If Ctrl-C, SIGTERM or
+        SIGHUP stopped the run, ``.interrupted`` is true and the completed stages are kept (and
+        written).
 
     Raises
     ------
@@ -100,40 +102,46 @@ def run(
             f"{type(mission).__name__}); swarmgames.missions.check_mission(mission) says what "
             "is missing"
         )
-    if out is not None and not isinstance(out, RunFolder):
-        out = RunFolder(Path(out), force=force)
-    t0 = time.perf_counter()
-    # Children 0-2 are those of runs before the communication layer and faults (same draws).
-    seeds = np.random.SeedSequence(config.seed).spawn(5)
-    rng_start, rng_net, rng_game, rng_comms, rng_faults = (np.random.default_rng(s) for s in seeds)
-    sw, sim = config.swarm, config.sim
-    states = _initial_states(mission, sw.n_robots, rng_start)
-    if provider is None:
-        from swarmgames.sim.providers import provider_from_config
-
-        provider = provider_from_config(config.network, sw.n_robots, rng_net)
-    from swarmgames.sim.providers import comms_from_config
-
-    comms = comms_from_config(config, states.shape[1], provider)
-    controller = make_controller(config, mission)
-    n_stages = max(1, int(np.floor(sim.duration_s / sim.control_period_s + 1e-9)))
-    label = f"{config.name}: {sw.n_robots} robots, {config.network.backend}"
-    with ProgressBar(label, progress, total=n_stages) as tick:
-        log = run_stages(
-            provider=provider,
-            controller=controller,
-            mission=mission,
-            states=states,
-            n_stages=n_stages,
-            period_s=sim.control_period_s,
-            warmup_s=sim.warmup_s,
-            rng=rng_game,
-            progress=tick,
-            comms=comms,
-            comms_rng=rng_comms,
-            faults=Faults.from_config(config.faults, sw.n_robots, rng_faults),
+    # SIGTERM and SIGHUP (kill, timeout, schedulers, a closed terminal) stop the run like
+    # Ctrl-C: the completed stages are kept and written.
+    with signals_interrupt():
+        if out is not None and not isinstance(out, RunFolder):
+            out = RunFolder(Path(out), force=force)
+        t0 = time.perf_counter()
+        # Children 0-2 are those of runs before the communication layer and faults (same
+        # draws).
+        seeds = np.random.SeedSequence(config.seed).spawn(5)
+        rng_start, rng_net, rng_game, rng_comms, rng_faults = (
+            np.random.default_rng(s) for s in seeds
         )
-    result = RunResult.from_log(log, config, mission, time.perf_counter() - t0)
-    if out is not None:
-        result.write(out, animation=sim.animation, frames=sim.animation_frames)
-    return result
+        sw, sim = config.swarm, config.sim
+        states = _initial_states(mission, sw.n_robots, rng_start)
+        if provider is None:
+            from swarmgames.sim.providers import provider_from_config
+
+            provider = provider_from_config(config.network, sw.n_robots, rng_net)
+        from swarmgames.sim.providers import comms_from_config
+
+        comms = comms_from_config(config, states.shape[1], provider)
+        controller = make_controller(config, mission)
+        n_stages = max(1, int(np.floor(sim.duration_s / sim.control_period_s + 1e-9)))
+        label = f"{config.name}: {sw.n_robots} robots, {config.network.backend}"
+        with ProgressBar(label, progress, total=n_stages) as tick:
+            log = run_stages(
+                provider=provider,
+                controller=controller,
+                mission=mission,
+                states=states,
+                n_stages=n_stages,
+                period_s=sim.control_period_s,
+                warmup_s=sim.warmup_s,
+                rng=rng_game,
+                progress=tick,
+                comms=comms,
+                comms_rng=rng_comms,
+                faults=Faults.from_config(config.faults, sw.n_robots, rng_faults),
+            )
+        result = RunResult.from_log(log, config, mission, time.perf_counter() - t0)
+        if out is not None:
+            result.write(out, animation=sim.animation, frames=sim.animation_frames)
+        return result

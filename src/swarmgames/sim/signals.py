@@ -1,0 +1,56 @@
+"""Termination signals stop a run like Ctrl-C.
+
+``kill``, ``timeout``, batch schedulers and a closed terminal send SIGTERM or SIGHUP, whose
+default action ends the process at once and loses every completed stage. While a run is in
+progress :func:`signals_interrupt` turns them into ``KeyboardInterrupt`` in the main thread,
+which the stage loop already handles: the completed stages are kept, written, and
+``summary.json`` says ``"interrupted": true``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+from collections.abc import Iterator
+from typing import Any
+
+__all__ = ["INTERRUPT_SIGNALS", "signals_interrupt"]
+
+#: The signals that stop a run like Ctrl-C (those this platform has).
+INTERRUPT_SIGNALS = tuple(
+    getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
+
+
+def _interrupt(signum: int, frame: Any) -> None:
+    raise KeyboardInterrupt(f"stopped by {signal.Signals(signum).name}")
+
+
+@contextlib.contextmanager
+def signals_interrupt() -> Iterator[None]:
+    """Raise ``KeyboardInterrupt`` on SIGTERM and SIGHUP inside the ``with`` block.
+
+    The previous handlers are restored on exit. Outside the main thread (where Python
+    cannot install signal handlers) it does nothing.
+
+    Examples
+    --------
+    >>> import signal
+    >>> before = signal.getsignal(signal.SIGTERM)
+    >>> with signals_interrupt():
+    ...     signal.getsignal(signal.SIGTERM) is before
+    False
+    >>> signal.getsignal(signal.SIGTERM) is before
+    True
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {sig: signal.signal(sig, _interrupt) for sig in INTERRUPT_SIGNALS}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            # None: a handler installed from C, which Python cannot reinstall.
+            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
