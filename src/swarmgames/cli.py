@@ -156,7 +156,7 @@ def run(
 
 # ----------------------------------------------------------------------------- reproduce
 
-FIGURES = ("fig1", "fig2", "all")
+FIGURES = ("fig1", "fig2", "comms", "all")
 
 
 @cli.command()
@@ -172,6 +172,13 @@ FIGURES = ("fig1", "fig2", "all")
     help="Network backend of Figure 1.",
 )
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@click.option(
+    "--seeds",
+    default="0,1,2",
+    show_default=True,
+    metavar="S,S,...",
+    help="Seeds of every variant of `comms`.",
+)
 @click.option("--no-progress", is_flag=True, help="Do not show a progress bar.")
 @_guarded
 def reproduce(
@@ -181,6 +188,7 @@ def reproduce(
     overrides: tuple[str, ...],
     backend: str,
     seed: int,
+    seeds: str,
     no_progress: bool,
 ) -> None:
     """Reproduce the paper's figures.
@@ -191,7 +199,10 @@ def reproduce(
     fig2  (a) average payoff of a robot against time for 3, 5, 7, 10 and 20 UAVs,
           with and without virtual mean neighbours; (b) local-game solve time and
           payoff-integration time against swarm size
-    all   both, into OUT/fig1 and OUT/fig2
+    comms coverage, regret, settling, information age and bytes of the default
+          scenario with ideal delivery, routed delivery at 0-50 % loss and routed
+          delivery with 1 and 2 robots crashing at mid-mission, over --seeds
+    all   fig1 and fig2, into OUT/fig1 and OUT/fig2
 
     --set overrides apply to the default scenario the figures start from.
     """
@@ -223,6 +234,20 @@ def reproduce(
         res2 = reproduce_fig2(base=base, seed=seed, progress=progress)
         res2.write(folders["fig2"])
         click.echo(f"Figure 2: {len(res2.summaries)} runs -> {folders['fig2'].path}/")
+    if "comms" in folders:
+        from swarmgames.experiments.comms import reproduce_comms
+
+        try:
+            chosen = [int(x) for x in seeds.split(",") if x.strip()]
+        except ValueError:
+            chosen = []
+        if not chosen or min(chosen) < 0:
+            raise click.BadParameter(
+                f"must be comma-separated seeds >= 0 (got {seeds!r})", param_hint="--seeds"
+            )
+        res3 = reproduce_comms(base=base, seeds=chosen, progress=progress)
+        res3.write(folders["comms"])
+        click.echo(f"Communication: {len(res3.runs)} runs -> {folders['comms'].path}/")
 
 
 # ----------------------------------------------------------------------------- network
