@@ -40,5 +40,5 @@ def test_files(result, tmp_path):
 def test_bad_arguments():
     with pytest.raises(ConfigError, match="seeds must not be empty"):
         reproduce_comms(seeds=[], progress=False)
-    with pytest.raises(ConfigError, match="crashes must be < swarm.n_robots"):
+    with pytest.raises(ConfigError, match=r"crashes must be < swarm\.n_robots"):
         reproduce_comms(seeds=[0], crashes=(7,), progress=False)
