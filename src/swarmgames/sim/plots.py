@@ -37,16 +37,21 @@ def _moving(result) -> tuple[np.ndarray, np.ndarray]:
 
 
 def plot_timeseries(result) -> Figure:
-    """Mean payoff, the mission's metrics, local/global regret and the network against time.
+    """Mean payoff, the mission's metrics, local/global regret and the network against time;
+    with routed communication, a last row for information age, freshness and bytes.
 
     One panel per mission metric: the first beside the payoff, the others in further rows.
     """
     sw, me = result.swarm, result.metrics
     own = mission_columns(result)
     extra = own[1:]
-    rows = 2 + -(-len(extra) // 2)
+    routed = getattr(getattr(result.config, "comms", None), "model", "ideal") != "ideal"
+    rows = 2 + -(-len(extra) // 2) + int(routed)
     fig = Figure(figsize=(10, 3.5 * rows), layout="constrained")
-    axs = fig.subplots(rows, 2, sharex=True, squeeze=False)
+    grid = axs = fig.subplots(rows, 2, sharex=True, squeeze=False)
+    if routed:
+        _comms_row(axs[-1], sw, me)
+        axs = axs[:-1]
     axs[0, 0].plot(sw["t"], sw["mean_payoff"], color="tab:blue")
     axs[0, 0].set_ylabel("mean payoff $M_i$ (eq. 1)")
     panels = [axs[0, 1], *axs[2:].ravel()]
@@ -82,7 +87,7 @@ def plot_timeseries(result) -> Figure:
     net.set_ylabel("network / motion")
     net.legend(fontsize="small")
     for col in range(2):  # the lowest visible panel of each column carries the time axis
-        ax = [a for a in axs[:, col] if a.get_visible()][-1]
+        ax = [a for a in grid[:, col] if a.get_visible()][-1]
         ax.set_xlabel("time (s)")
         ax.tick_params(labelbottom=True)
     cfg = result.config
@@ -92,6 +97,21 @@ def plot_timeseries(result) -> Figure:
         f"{cfg.sim.controller} controller"
     )
     return fig
+
+
+def _comms_row(axs, sw, me) -> None:
+    """Information age and freshness (left), bytes per robot and stage (right)."""
+    age, fresh = axs
+    age.plot(sw["t"], sw["mean_info_age_s"], color="tab:purple", label="mean information age")
+    age.set_ylabel("information age (s)")
+    share = me.groupby("t")["fresh_fraction"].mean()
+    twin = age.twinx()
+    twin.plot(share.index, share, color="tab:gray", ls=":", label="fresh share")
+    twin.set_ylabel("fresh share of N_i(h)")
+    twin.set_ylim(0, 1.05)
+    age.legend(loc="upper left", fontsize="small")
+    fresh.plot(sw["t"], sw["bytes_per_robot"], color="tab:brown")
+    fresh.set_ylabel("state-message bytes per robot (sent + relayed)")
 
 
 def plot_paths(result) -> Figure:
