@@ -5,6 +5,7 @@ from swarmgames.network.conformance import check_provider
 from swarmgames.network.factory import BACKENDS, make_provider
 from swarmgames.network.links import LinkGraph, link_graph
 from swarmgames.network.olsr.provider import OlsrProvider
+from swarmgames.network.olsr.traffic import ControlTraffic
 from swarmgames.network.oracle import OracleProvider
 from swarmgames.network.parameters import OlsrParameters, RadioParameters
 from swarmgames.network.propagation import PropagationModel, max_range
@@ -14,6 +15,7 @@ from swarmgames.topology import TopologySnapshot
 
 __all__ = [
     "BACKENDS",
+    "ControlTraffic",
     "DiskProvider",
     "KnnProvider",
     "LinkGraph",

@@ -35,6 +35,11 @@ at the time the TC is built; a flood's wave order stands in for exact time order
 MPR sets are recomputed when HELLOs are built rather than after every reception; HELLO and TC
 messages are not aggregated into one packet.
 
+Control traffic: every HELLO and every TC a node originates or forwards is counted, with its
+size in bytes (:mod:`.wire`), when it is sent (its jitter elapsed);
+:meth:`OlsrEngine.take_control_traffic` hands the counts over. Counting draws no random numbers
+and changes no state that the tables read.
+
 References
 ----------
 .. [1] RFC 3626 sections 3.4, 6-10, 18.
@@ -47,10 +52,11 @@ from __future__ import annotations
 import numpy as np
 
 from swarmgames.network.links import LinkGraph
-from swarmgames.network.olsr import tables
+from swarmgames.network.olsr import tables, wire
 from swarmgames.network.olsr.mpr import select_mprs
 from swarmgames.network.olsr.routing import compute_routes
 from swarmgames.network.olsr.tables import KeyedTable, KeySet, first_per_key, sorted_contains
+from swarmgames.network.olsr.traffic import ControlTraffic
 from swarmgames.network.parameters import OlsrParameters
 
 __all__ = ["OlsrEngine"]
@@ -67,6 +73,11 @@ def _csr_gather(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.nd
     owner = np.repeat(np.arange(rows.size), counts)
     offset = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
     return np.repeat(starts, counts) + offset, owner
+
+
+def _link_codes(link: np.ndarray, neigh: np.ndarray) -> np.ndarray:
+    """RFC 3626 section 6.1.1 link codes ``link_type | neighbour_type << 2`` (lost = 3)."""
+    return np.where(link == _LOST, 3, link).astype(np.int64) | (neigh.astype(np.int64) << 2)
 
 
 class OlsrEngine:
@@ -115,6 +126,7 @@ class OlsrEngine:
         self._hello_link = np.zeros(0, dtype=np.int8)
         self._hello_neigh = np.zeros(0, dtype=np.int8)
         self._hello_send = np.full(n, np.inf)
+        self._hello_bytes = np.zeros(n, dtype=np.int64)  # size of each node's HELLO this round
         # Queued TC deliveries (receiver, originator, time, round) and heard packets.
         self._tc_rounds: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._tc_round_id = 0
@@ -125,6 +137,13 @@ class OlsrEngine:
         self._q_round = np.zeros(0, dtype=np.int64)
         self._heard_r = np.zeros(0, dtype=np.int64)
         self._heard_t = np.zeros(0)
+        # Queued TC transmissions (sender, send time, bytes, forwarded?) and the counters.
+        self._tx_node = np.zeros(0, dtype=np.int64)
+        self._tx_t = np.zeros(0)
+        self._tx_bytes = np.zeros(0, dtype=np.int64)
+        self._tx_fwd = np.zeros(0, dtype=bool)
+        self._traffic_since = float(start_time)
+        self._traffic = self._zero_traffic()
 
     # ------------------------------------------------------------------ event loop
     def run_until(self, to_time: float, graph: LinkGraph) -> None:
@@ -150,6 +169,9 @@ class OlsrEngine:
     def _deliver_until(self, t: float, graph: LinkGraph) -> None:
         due = np.flatnonzero(self._hello_send <= t)
         if due.size:
+            # Every node sends its HELLO, heard by anyone or not (ns-3 sends empty ones too).
+            self._traffic["hello_sent"][due] += 1
+            self._traffic["hello_bytes"][due] += self._hello_bytes[due]
             self._receive_hellos(due, graph)
             self._hello_send[due] = np.inf
         if self._q_t.size:
@@ -166,6 +188,20 @@ class OlsrEngine:
             if now.any():
                 np.maximum.at(self.last_rx, self._heard_r[now], self._heard_t[now])
                 self._heard_r, self._heard_t = self._heard_r[~now], self._heard_t[~now]
+        if self._tx_t.size:
+            now = self._tx_t <= t
+            if now.any():
+                self._count_tcs(self._tx_node[now], self._tx_bytes[now], self._tx_fwd[now])
+                keep = ~now
+                self._tx_node, self._tx_t = self._tx_node[keep], self._tx_t[keep]
+                self._tx_bytes, self._tx_fwd = self._tx_bytes[keep], self._tx_fwd[keep]
+
+    def _count_tcs(self, node: np.ndarray, size: np.ndarray, forwarded: np.ndarray) -> None:
+        tr, orig = self._traffic, ~forwarded
+        np.add.at(tr["tc_sent"], node[orig], 1)
+        np.add.at(tr["tc_bytes"], node[orig], size[orig])
+        np.add.at(tr["tc_forwarded"], node[forwarded], 1)
+        np.add.at(tr["tc_forwarded_bytes"], node[forwarded], size[forwarded])
 
     def _prune(self, t: float) -> None:
         gone = self.links.cols["ltime"] < t
@@ -257,6 +293,20 @@ class OlsrEngine:
             self.cfg.willingness,
         )
 
+    # ------------------------------------------------------------------ control traffic
+    def _zero_traffic(self) -> dict[str, np.ndarray]:
+        names = ("hello_sent", "hello_bytes", "tc_sent", "tc_bytes")
+        names += ("tc_forwarded", "tc_forwarded_bytes")
+        return {k: np.zeros(self.n, dtype=np.int64) for k in names}
+
+    def take_control_traffic(self) -> ControlTraffic:
+        """HELLOs and TCs each node sent since the previous call (or the start), and their
+        bytes; the counters then start again from zero."""
+        out = ControlTraffic(self._traffic_since, self.time, **self._traffic)
+        self._traffic = self._zero_traffic()
+        self._traffic_since = self.time
+        return out
+
     # ------------------------------------------------------------------ messages
     def hello_message(self, node: int) -> list[tuple[int, int]]:
         """Link messages of ``node``'s latest HELLO: ``(neighbour, link_code)`` pairs, with the
@@ -265,8 +315,7 @@ class OlsrEngine:
         10 = symmetric and selected as MPR."""
         n = self._nn
         lo, hi = np.searchsorted(self._hello_keys, [node * n, (node + 1) * n])
-        link = np.where(self._hello_link[lo:hi] == _LOST, 3, self._hello_link[lo:hi])
-        codes = link | (self._hello_neigh[lo:hi].astype(np.int64) << 2)
+        codes = _link_codes(self._hello_link[lo:hi], self._hello_neigh[lo:hi])
         return [(int(k % n), int(c)) for k, c in zip(self._hello_keys[lo:hi], codes, strict=True)]
 
     def tc_message(self, node: int) -> list[int] | None:
@@ -289,6 +338,12 @@ class OlsrEngine:
         neigh = np.where(sym, _SYM_NEIGH, _NOT_NEIGH).astype(np.int8)
         neigh[sorted_contains(self.mpr_keys(b), keys) & sym] = _MPR_NEIGH
         self._hello_keys, self._hello_link, self._hello_neigh = keys, link, neigh
+        # One link message per distinct link code (RFC 3626 section 6.1), as hello_message lists.
+        owner = keys // self._nn
+        groups = np.unique(owner * 16 + _link_codes(link, neigh)) // 16
+        self._hello_bytes = wire.hello_size(
+            np.bincount(groups, minlength=self.n), np.bincount(owner, minlength=self.n)
+        )
         self._hello_send = b + self._jitter(self.n)
 
     def _receive_hellos(self, senders: np.ndarray, graph: LinkGraph) -> None:
@@ -357,7 +412,9 @@ class OlsrEngine:
         rid = self._tc_round_id
         self._tc_round_id += 1
         self._last_tc = rid
-        self._tc_rounds[rid] = (sk, np.searchsorted(sk, np.arange(self.n + 1) * n))
+        ptr = np.searchsorted(sk, np.arange(self.n + 1) * n)
+        self._tc_rounds[rid] = (sk, ptr)
+        tc_bytes = wire.tc_size(np.diff(ptr))  # of each originator's TC, forwarded copies too
         # Link and selector state as of the build time.
         size = int(n * n)
         sym_ok = KeySet(size)
@@ -371,7 +428,12 @@ class OlsrEngine:
         reached.add(msg * n + msg)
         out_r, out_o, out_t = [], [], []
         heard_r, heard_t = [], []
+        tx_node, tx_t, tx_msg = [], [], []
         while msg.size:
+            # fwd transmits its copy of msg at t_send: the originator itself in the first wave.
+            tx_node.append(fwd)
+            tx_t.append(t_send)
+            tx_msg.append(msg)
             pos, idx = _csr_gather(graph.indptr, fwd)
             r = graph.indices[pos].astype(np.int64)
             m, f, t = msg[idx], fwd[idx], t_send[idx]
@@ -402,6 +464,11 @@ class OlsrEngine:
             self._q_round = np.concatenate([self._q_round, np.full(total, rid)])
         self._heard_r = np.concatenate([self._heard_r, *heard_r])
         self._heard_t = np.concatenate([self._heard_t, *heard_t])
+        tx_node, tx_msg = np.concatenate(tx_node), np.concatenate(tx_msg)
+        self._tx_node = np.concatenate([self._tx_node, tx_node])
+        self._tx_t = np.concatenate([self._tx_t, *tx_t])
+        self._tx_bytes = np.concatenate([self._tx_bytes, tc_bytes[tx_msg]])
+        self._tx_fwd = np.concatenate([self._tx_fwd, tx_node != tx_msg])
 
     def _receive_tcs(self, r: np.ndarray, o: np.ndarray, t: np.ndarray, rounds: np.ndarray):
         n, hold = self._nn, self.cfg.topology_hold_s

@@ -6,6 +6,7 @@ import numpy as np
 
 from swarmgames.network.links import link_graph
 from swarmgames.network.olsr.engine import OlsrEngine
+from swarmgames.network.olsr.traffic import ControlTraffic
 from swarmgames.network.parameters import OlsrParameters, RadioParameters
 from swarmgames.network.propagation import channel_model
 from swarmgames.network.validation import check_positions, check_time
@@ -116,3 +117,34 @@ class OlsrProvider:
         """Every robot's routing table now."""
         owner, dest, hops, nxt = self.engine.routes(self._time)
         return TopologySnapshot(self._time, self.n_robots, owner, dest, hops, nxt)
+
+    def control_traffic(self) -> ControlTraffic:
+        """OLSR's own messages and bytes, per robot, since the previous call (or ``reset``).
+
+        Counts the HELLOs each robot sent, the TCs it originated and the TCs it forwarded as
+        an MPR, each when it went on the air, with RFC 3626 sizes (:mod:`~.wire`); the counters
+        then restart from zero. Reading them changes nothing in the network: the tables are the
+        same whether or not this is called. Only this provider has the method; the other
+        built-in providers send no control traffic (callers use ``getattr``).
+
+        Returns
+        -------
+        ControlTraffic
+            Read-only ``(N,)`` int64 arrays over ``(since, until]``, ``until`` = :attr:`time`.
+
+        Notes
+        -----
+        The network layer cannot tell a robot the simulation has silenced (moved out of range)
+        from one that is out of range: both still send HELLOs here, and a caller that knows a
+        robot's radio is off should not charge it.
+
+        Examples
+        --------
+        >>> line = np.array([[0.0, 0, 0], [300, 0, 0], [600, 0, 0]])
+        >>> p = OlsrProvider(3, seed=0)
+        >>> _ = p.reset(line)
+        >>> p.step(30.0, line)
+        >>> p.control_traffic().hello_sent.tolist()
+        [15, 15, 15]
+        """
+        return self.engine.take_control_traffic()
