@@ -29,6 +29,7 @@ SWARM_COLUMNS = [
     "mean_info_age_s",
     "bytes_per_robot",
     "alive_robots",
+    "olsr_bytes_per_robot",
 ]
 
 
@@ -65,6 +66,8 @@ def test_default_run_meets_acceptance(default_run):
 def test_tables_have_documented_columns(default_run):
     assert list(default_run.to_frame("trajectory").columns) == TRAJECTORY_COLUMNS
     assert list(default_run.to_frame("metrics").columns) == METRICS_COLUMNS + COMMS_COLUMNS
+    # the OLSR provider counts its own control traffic; the other providers have none
+    assert default_run.summary["olsr_bytes_per_robot_stage"] > 0
     assert list(default_run.to_frame("swarm").columns) == SWARM_COLUMNS
     with pytest.raises(ValueError, match="table must be one of"):
         default_run.to_frame("nope")

@@ -72,6 +72,7 @@ NETWORK_COLUMNS = [
     "mean_info_age_s",
     "bytes_per_robot",
     "alive_robots",
+    "olsr_bytes_per_robot",
 ]
 #: Per-robot columns of the communication layer and the faults (metrics.csv, after
 #: METRICS_COLUMNS).
@@ -86,6 +87,8 @@ COMMS_COLUMNS = [
     "bytes_received",
     "alive",
     "radio",
+    "olsr_messages",
+    "olsr_bytes",
 ]
 RESERVED_COLUMNS = frozenset(
     [*TRAJECTORY_COLUMNS, *METRICS_COLUMNS, *COMMS_COLUMNS, *SWARM_HEAD, *NETWORK_COLUMNS]

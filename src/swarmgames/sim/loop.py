@@ -210,6 +210,9 @@ def run_stages(
     try:
         provider.reset(faults.network_positions(pos, faults.radio(0.0, pos)), 0.0)
         snap = provider.advance(warmup_s, faults.network_positions(pos, faults.radio(0.0, pos)))
+        control = getattr(provider, "control_traffic", None)  # OLSR's own messages, if any
+        if control is not None:
+            control()  # the warm-up's traffic is not part of any stage
         for k in range(n_stages):
             t_stage = time.perf_counter()
             t = warmup_s + k * period_s
@@ -228,13 +231,21 @@ def run_stages(
             t_next = t + period_s
             net_pos = faults.network_positions(new_pos, faults.radio(t_next, new_pos))
             snap_next = provider.advance(t_next, net_pos)
+            if control is not None:  # sent during this period; a silenced robot sends none
+                olsr = control()
+                columns_olsr = {
+                    "olsr_messages": np.where(radio, olsr.messages, 0),
+                    "olsr_bytes": np.where(radio, olsr.bytes, 0),
+                }
+            else:
+                columns_olsr = {}
             # A stage is recorded only once it is complete (Ctrl-C keeps whole stages).
             times.append(t)
             acts.append(np.asarray(dec.actions, dtype=np.int64))
-            columns = {**_robot_columns(dec, n), **heard.columns(), **extra}
+            columns = {**_robot_columns(dec, n), **heard.columns()}
             for name in DECISION_COLUMNS:  # a crashed robot decides nothing
                 columns[name] = np.where(alive, columns[name], np.nan)
-            columns.update(alive=alive, radio=radio)
+            columns.update(alive=alive, radio=radio, **columns_olsr, **extra)
             for name, val in columns.items():
                 per_robot.setdefault(name, []).append(np.asarray(val))
             row = {"mean_payoff": _nanmean(np.where(alive, dec.payoff, np.nan))}
@@ -250,6 +261,8 @@ def run_stages(
                 ),
                 alive_robots=int(alive.sum()),
             )
+            if columns_olsr:
+                row["olsr_bytes_per_robot"] = float(np.mean(columns_olsr["olsr_bytes"]))
             for name, val in row.items():
                 swarm.setdefault(name, []).append(val)
             links.append(edges)

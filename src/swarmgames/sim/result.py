@@ -49,8 +49,8 @@ def _metrics(log) -> pd.DataFrame:
 def _swarm(log) -> pd.DataFrame:
     cols: dict[str, Any] = {"t": log.times}
     names = ["mean_payoff"] + [k for k in log.swarm if k not in ("mean_payoff", *NETWORK_COLUMNS)]
-    for name in names + NETWORK_COLUMNS:
-        cols[name] = log.swarm.get(name, np.zeros(len(log.times)))
+    for name in names + [c for c in NETWORK_COLUMNS if c in log.swarm]:
+        cols[name] = log.swarm[name]
     return pd.DataFrame(cols)
 
 
@@ -126,6 +126,7 @@ def summarise(log, config, mission, wall_s: float) -> dict[str, Any]:
         "mean_info_age_s": _finite_mean(pr.get("info_age_s")),
         "mean_fresh_fraction": _finite_mean(pr.get("fresh_fraction")),
         "bytes_per_robot_stage": _finite_mean(sw.get("bytes_per_robot")),
+        "olsr_bytes_per_robot_stage": _finite_mean(sw.get("olsr_bytes_per_robot")),
         "robots_failed": int((~pr["alive"][-1]).sum()) if s and "alive" in pr else 0,
         "robots_without_radio": (
             int((pr["alive"][-1] & ~pr["radio"][-1]).sum()) if s and "radio" in pr else 0
