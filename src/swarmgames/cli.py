@@ -156,7 +156,7 @@ def run(
 
 # ----------------------------------------------------------------------------- reproduce
 
-FIGURES = ("fig1", "fig2", "comms", "all")
+FIGURES = ("fig1", "fig2", "comms", "comms-cost", "all")
 
 
 @cli.command()
@@ -202,6 +202,8 @@ def reproduce(
     comms coverage, regret, settling, information age and bytes of the default
           scenario with ideal delivery, routed delivery at 0-50 % loss and routed
           delivery with 1 and 2 robots crashing at mid-mission, over --seeds
+    comms-cost  payload bytes per robot and stage of local games, a centralised
+          controller and swarm-wide flooding for N = 10 ... 10 000, over --seeds
     all   fig1 and fig2, into OUT/fig1 and OUT/fig2
 
     --set overrides apply to the default scenario the figures start from.
@@ -234,9 +236,7 @@ def reproduce(
         res2 = reproduce_fig2(base=base, seed=seed, progress=progress)
         res2.write(folders["fig2"])
         click.echo(f"Figure 2: {len(res2.summaries)} runs -> {folders['fig2'].path}/")
-    if "comms" in folders:
-        from swarmgames.experiments.comms import reproduce_comms
-
+    if "comms" in folders or "comms-cost" in folders:
         try:
             chosen = [int(x) for x in seeds.split(",") if x.strip()]
         except ValueError:
@@ -245,6 +245,15 @@ def reproduce(
             raise click.BadParameter(
                 f"must be comma-separated seeds >= 0 (got {seeds!r})", param_hint="--seeds"
             )
+    if "comms-cost" in folders:
+        from swarmgames.experiments.comms_cost import comms_cost
+
+        res4 = comms_cost(seeds=chosen)
+        res4.write(folders["comms-cost"])
+        click.echo(f"Communication cost: {len(res4.frame)} rows -> {folders['comms-cost'].path}/")
+    if "comms" in folders:
+        from swarmgames.experiments.comms import reproduce_comms
+
         res3 = reproduce_comms(base=base, seeds=chosen, progress=progress)
         res3.write(folders["comms"])
         click.echo(f"Communication: {len(res3.runs)} runs -> {folders['comms'].path}/")
