@@ -21,6 +21,8 @@ def test_records_of_every_benchmark(tiny):
     assert {"stage", "integrate", "local_game", "olsr_advance", "batched_vs_single"} <= names
     assert "batched_vs_single_random" in names
     assert "slope" in names
+    comms = [r for r in tiny.records if r["benchmark"] == "routed_comms"]
+    assert [r["n_robots"] for r in comms] == [5, 12] and all(r["share_of_stage"] > 0 for r in comms)
     stages = [r for r in tiny.records if r["benchmark"] == "stage"]
     assert [r["n_robots"] for r in stages] == [5, 12]
     for r in stages:

@@ -143,6 +143,11 @@ class BenchResult:
                     f"  compiled batch vs numpy one by one ({kind}): "
                     f"{r['ratio_vs_numpy_single']:.0f}x"
                 )
+        for r in self._of("routed_comms"):
+            notes.append(
+                f"routed comms exchange at N = {r['n_robots']:,}: {_fmt_s(r['median_s'])} "
+                f"({100 * r['share_of_stage']:.1f} % of a stage)"
+            )
         for r in self._of("olsr_vs_ns3"):
             if r.get("skipped"):
                 notes.append(f"olsr vs ns-3: skipped ({r['skipped']})")
@@ -279,6 +284,33 @@ def _stage_records(n: int, repeats: int, seed: int, workers: int) -> tuple[list[
             "unit": "per control period",
         },
     ], sb
+
+
+def _routed_comms(sb: StageBench, stage_s: float, repeats: int, seed: int) -> dict:
+    """One routed exchange (:class:`~swarmgames.comms.RoutedComms`: compose, flood over h
+    hops, merge the belief tables, build the inboxes) on the stage benchmark's swarm, median
+    of ``repeats`` (after one untimed exchange that fills the belief tables), and its share
+    of a stage."""
+    from swarmgames.sim.providers import comms_from_config
+
+    cfg = sb.config.with_overrides({"comms.model": "routed"})
+    comms = comms_from_config(cfg, sb.states.shape[1], sb.provider)
+    rng = np.random.default_rng(seed)
+    comms.exchange(sb.time, sb.snapshot, sb.states, rng)
+    samples = []
+    for k in range(max(1, repeats)):
+        t0 = time.perf_counter()
+        comms.exchange(sb.time + k + 1.0, sb.snapshot, sb.states, rng)
+        samples.append(time.perf_counter() - t0)
+    med = float(np.median(samples))
+    return {
+        "benchmark": "routed_comms",
+        "n_robots": sb.n_robots,
+        "median_s": med,
+        "share_of_stage": med / stage_s if stage_s > 0 else float("nan"),
+        "repeats": max(1, repeats),
+        "unit": "per control period",
+    }
 
 
 def _engines() -> tuple[str, ...]:
@@ -502,6 +534,7 @@ def run_suite(
         _say(progress, f"stage, N = {n:,} ({reps} repeats)")
         recs, sb = _stage_records(int(n), reps, seed, int(workers))
         records.extend(recs)
+        records.append(_routed_comms(sb, recs[0]["median_s"], reps, seed))
         _say(progress, f"  {_fmt_s(recs[0]['median_s'])} per stage")
         if n <= 1_000:
             ratio_bench = sb
