@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from swarmgames.arrays import freeze_fields
+from swarmgames.arrays import csr_gather, freeze_fields
 
 __all__ = ["Delivery", "flood"]
 
@@ -125,10 +125,8 @@ def flood(
         if depth > 1:  # robots that first heard a message one hop ago relay it once
             np.add.at(forwarded, node, 1)
             np.add.at(bytes_forwarded, node, sizes[msg])
-        deg = indptr[node + 1] - indptr[node]
-        tx_msg, tx_u = np.repeat(msg, deg), np.repeat(node, deg)
-        offset = np.arange(tx_msg.size) - np.repeat(np.cumsum(deg) - deg, deg)
-        tx_v = indices[np.repeat(indptr[node], deg) + offset]
+        entry, which = csr_gather(indptr, node)
+        tx_msg, tx_u, tx_v = msg[which], node[which], indices[entry]
         keys = tx_msg * n + tx_v
         fresh = ~_isin_sorted(keys, reached)
         keys, tx_u, tx_v = keys[fresh], tx_u[fresh], tx_v[fresh]

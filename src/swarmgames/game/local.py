@@ -30,7 +30,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from swarmgames.arrays import frozen
+from swarmgames.arrays import csr_gather, frozen
 from swarmgames.game.actions import ActionModel, action_mask_of
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.virtual import neighbourhood_means, reaches_outside
@@ -227,14 +227,12 @@ def pad_rows(indptr: np.ndarray, indices: np.ndarray, rows: np.ndarray) -> np.nd
     """
     flat = rows.ravel()
     ok = flat >= 0
-    safe = np.where(ok, flat, 0)
-    start = indptr[safe]
-    count = np.where(ok, indptr[safe + 1] - start, 0)
-    width = int(count.max(initial=0))
-    out = np.full((flat.size, max(width, 1)), -1, dtype=np.int32)
-    row_id = np.repeat(np.arange(flat.size), count)
+    entry, row_id = csr_gather(indptr, flat[ok])
+    row_id = np.flatnonzero(ok)[row_id]
+    count = np.bincount(row_id, minlength=flat.size)
+    out = np.full((flat.size, max(int(count.max(initial=0)), 1)), -1, dtype=np.int32)
     col = np.arange(row_id.size) - np.repeat(np.cumsum(count) - count, count)
-    out[row_id, col] = indices[np.repeat(start, count) + col]
+    out[row_id, col] = indices[entry]
     return out.reshape((*rows.shape, out.shape[1]))
 
 

@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from swarmgames.arrays import csr_gather
 from swarmgames.network.links import LinkGraph
 from swarmgames.network.olsr import tables, wire
 from swarmgames.network.olsr.mpr import select_mprs
@@ -63,16 +64,6 @@ __all__ = ["OlsrEngine"]
 
 _LOST, _ASYM, _SYM = 0, 1, 2
 _NOT_NEIGH, _SYM_NEIGH, _MPR_NEIGH = 0, 1, 2
-
-
-def _csr_gather(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions of the CSR entries of ``rows`` and, for each, the index into ``rows``."""
-    starts = indptr[rows]
-    counts = indptr[rows + 1] - starts
-    total = int(counts.sum())
-    owner = np.repeat(np.arange(rows.size), counts)
-    offset = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
-    return np.repeat(starts, counts) + offset, owner
 
 
 def _link_codes(link: np.ndarray, neigh: np.ndarray) -> np.ndarray:
@@ -348,7 +339,7 @@ class OlsrEngine:
 
     def _receive_hellos(self, senders: np.ndarray, graph: LinkGraph) -> None:
         n, V = self._nn, self.cfg.neighbour_hold_s
-        pos, idx = _csr_gather(graph.indptr, senders)
+        pos, idx = csr_gather(graph.indptr, senders)
         j = senders[idx].astype(np.int64)
         r = graph.indices[pos].astype(np.int64)
         if r.size == 0:
@@ -382,7 +373,7 @@ class OlsrEngine:
         c_keys = hk[two]
         if c_keys.size and rs.size:
             ptr = np.searchsorted(c_keys, np.arange(self.n + 1, dtype=np.int64) * n)
-            cpos, cidx = _csr_gather(ptr, js)
+            cpos, cidx = csr_gather(ptr, js)
             x = c_keys[cpos] % n
             ok = x != rs[cidx]
             keys = ((rs[cidx] * n + js[cidx]) * n + x)[ok]
@@ -434,7 +425,7 @@ class OlsrEngine:
             tx_node.append(fwd)
             tx_t.append(t_send)
             tx_msg.append(msg)
-            pos, idx = _csr_gather(graph.indptr, fwd)
+            pos, idx = csr_gather(graph.indptr, fwd)
             r = graph.indices[pos].astype(np.int64)
             m, f, t = msg[idx], fwd[idx], t_send[idx]
             heard_r.append(r)
@@ -512,7 +503,7 @@ class _RoundTopology:
         for r in np.unique(rid):
             sel = hit[rid == r]
             content, ptr = self.rounds[int(r)]
-            pos, k = _csr_gather(ptr, keys[sel] % n)
+            pos, k = csr_gather(ptr, keys[sel] % n)
             src_all.append(sel[k])
             dest_all.append(content[pos] % n)
         if not src_all:
