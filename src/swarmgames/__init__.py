@@ -21,6 +21,7 @@ _LAZY = {
     "NeighbourhoodProvider": "swarmgames.network",
     "TopologySnapshot": "swarmgames.network",
     "RunResult": "swarmgames.sim",
+    "resume": "swarmgames.sim",
     "run": "swarmgames.sim",
     "ScenarioConfig": "swarmgames.config",
     "reproduce_fig2": "swarmgames.experiments.fig2",

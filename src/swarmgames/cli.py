@@ -115,6 +115,14 @@ def cli() -> None:
 @force_option
 @set_option
 @click.option("--seed", type=click.IntRange(min=0), default=None, help="Override the seed.")
+@click.option(
+    "--resume",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    metavar="DIR",
+    help="Continue the interrupted run in DIR from its last checkpoint (no SCENARIO, --set, "
+    "--seed, --out or --force).",
+)
 @click.option("--no-progress", is_flag=True, help="Do not show a progress bar.")
 @_guarded
 def run(
@@ -123,34 +131,64 @@ def run(
     force: bool,
     overrides: tuple[str, ...],
     seed: int | None,
+    resume: Path | None,
     no_progress: bool,
 ) -> None:
     """Run a mission: SCENARIO is a built-in name (default: coverage) or a TOML file.
 
-    Writes config.toml, trajectory.csv, metrics.csv, swarm.csv, plots, an animation and
-    summary.json into the run folder, and prints a summary.
+    Writes config.toml, trajectory.csv, metrics.csv, swarm.csv, manifest.json, plots, an
+    animation and summary.json into the run folder, and prints a summary. The tables grow
+    stage by stage: whatever stops a run, its completed stages are kept, and --resume DIR
+    continues it to the end, bit for bit as if it had never stopped.
 
     \b
     Examples:
       swarmgames run
       swarmgames run coverage-oracle --seed 3 --out runs/oracle
       swarmgames run my.toml --set swarm.n_robots=20 --set game.solver=best_response
+      swarmgames run --resume runs/coverage
     """
     from swarmgames.config import resolve_scenario
+    from swarmgames.sim import resume as resume_run
     from swarmgames.sim import run as run_mission
 
-    extra = (*overrides, f"seed={seed}") if seed is not None else overrides
-    config = resolve_scenario(scenario, extra)  # validated before the folder is created
-    folder = _open_run_folder(out, config.name, force)
-    try:
-        result = run_mission(config, out=folder, progress=not no_progress and _interactive())
-    except BaseException:
-        folder.discard_if_empty()  # only the folders this run created, and only if empty
-        raise
+    show = not no_progress and _interactive()
+    if resume is not None:
+        given = [
+            name
+            for name, value in (
+                ("SCENARIO", scenario),
+                ("--set", overrides),
+                ("--seed", seed is not None),
+                ("--out", out),
+                ("--force", force),
+            )
+            if value
+        ]
+        if given:
+            raise click.UsageError(
+                f"--resume continues a run with the configuration it started with; "
+                f"{', '.join(given)} cannot be given with it"
+            )
+        result = resume_run(resume, progress=show)
+        folder = result.folder
+    else:
+        extra = (*overrides, f"seed={seed}") if seed is not None else overrides
+        config = resolve_scenario(scenario, extra)  # validated before the folder is created
+        folder = _open_run_folder(out, config.name, force)
+        try:
+            result = run_mission(config, out=folder, progress=show)
+        except BaseException:
+            folder.discard_if_empty()  # only the folders this run created, and only if empty
+            raise
     _console().print(result.summary_table())
     click.echo(f"Wrote {len(folder.written)} files to {folder.path}/")
     if result.interrupted:
-        click.secho("Interrupted: the completed stages were written.", err=True)
+        click.secho(
+            "Interrupted: the completed stages were written; continue with "
+            f"`swarmgames run --resume {folder.path}`.",
+            err=True,
+        )
         sys.exit(130)
 
 

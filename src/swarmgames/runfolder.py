@@ -3,7 +3,9 @@
 A run folder holds the resolved ``config.toml``, data as CSV, figures as PNG and a
 ``summary.json``. Each file is written to a temporary file in the same folder, flushed,
 ``fsync``-ed and renamed over its final name (``os.replace`` is atomic on POSIX and Windows), so
-an interrupted run leaves complete files or none, never a half-written one. A process killed
+an interrupted run leaves complete files or none, never a half-written one. Tables that grow
+while a run goes on are appended instead (:class:`AppendFile`): each chunk goes to the operating
+system in one ``write``, so a killed process leaves whole chunks. A process killed
 while writing (``kill -9``) can leave its temporary file, ``.<name>.<random>.tmp``: such a
 leftover never makes a folder count as "not empty", and is removed when the folder is reused.
 """
@@ -21,7 +23,13 @@ from typing import IO, Any
 
 from swarmgames.errors import RunFolderError
 
-__all__ = ["RunFolder", "atomic_open", "atomic_write_bytes", "atomic_write_text"]
+__all__ = [
+    "AppendFile",
+    "RunFolder",
+    "atomic_open",
+    "atomic_write_bytes",
+    "atomic_write_text",
+]
 
 
 @contextlib.contextmanager
@@ -94,6 +102,71 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     with atomic_open(path, "wb") as fh:
         fh.write(data)
     return Path(path)
+
+
+class AppendFile:
+    """A file that grows by whole chunks (the tables of a run in progress).
+
+    Parameters
+    ----------
+    path : Path
+        The file; created if missing.
+    keep : int, optional
+        Keep the first ``keep`` bytes and drop the rest (a resumed run continues from its
+        checkpoint); default: start empty.
+
+    Raises
+    ------
+    RunFolderError
+        The file is shorter than ``keep`` bytes (it is not the one the checkpoint knew), or
+        cannot be opened.
+
+    Notes
+    -----
+    :meth:`append` hands each chunk to the operating system at once (no buffer in the
+    process), so a process killed at any moment (``kill -9``, out of memory) leaves every
+    chunk that was appended, and at most the last one cut short by a system crash; callers
+    that need a chunk on disk through a power cut call :meth:`sync`.
+    """
+
+    def __init__(self, path: Path, keep: int | None = None) -> None:
+        self.path = Path(path)
+        try:
+            self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT, 0o666)
+        except OSError as exc:
+            why = exc.strerror or type(exc).__name__
+            raise RunFolderError(f"cannot write {self.path}: {why}") from None
+        size = os.fstat(self._fd).st_size
+        if keep is not None and size < keep:
+            os.close(self._fd)
+            raise RunFolderError(
+                f"{self.path} has {size} bytes but its checkpoint knew {keep}: the file was "
+                "changed after the run stopped"
+            )
+        self.size = 0 if keep is None else int(keep)
+        os.ftruncate(self._fd, self.size)
+        os.lseek(self._fd, self.size, os.SEEK_SET)
+
+    def append(self, data: bytes) -> None:
+        """Append ``data`` (``write`` until all of it is written)."""
+        view = memoryview(data)
+        while view:
+            done = os.write(self._fd, view)
+            view = view[done:]
+        self.size += len(data)
+
+    def sync(self) -> None:
+        """Make the appended bytes durable (``fsync``)."""
+        os.fsync(self._fd)
+
+    def close(self) -> None:
+        """Close the file (idempotent)."""
+        if self._fd >= 0:
+            os.close(self._fd)
+            self._fd = -1
+
+    def __repr__(self) -> str:
+        return f"AppendFile({str(self.path)!r}, size={self.size})"
 
 
 class RunFolder:
@@ -181,8 +254,18 @@ class RunFolder:
         return p
 
     def _done(self, p: Path) -> Path:
-        self.written.append(p)
+        if p not in self.written:  # a file rewritten (the manifest of a run) counts once
+            self.written.append(p)
         return p
+
+    def append_file(self, name: str, keep: int | None = None) -> AppendFile:
+        """Open ``name`` as an :class:`AppendFile` (see there for ``keep``)."""
+        path = self.file(name)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle = AppendFile(path, keep)
+        if path not in self.written:
+            self.written.append(path)
+        return handle
 
     def write_text(self, name: str, text: str) -> Path:
         """Write a text file atomically."""

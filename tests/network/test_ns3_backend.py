@@ -295,3 +295,17 @@ def test_replay_and_compare_by_name_match_the_recorded_ns3_run(ns3):
     # (measured 98.7-99.2 % over runs 1-3), the lag windows being jitter-dependent
     cmp = compare(trace, [rec.provider("recorded"), "ns3"], 0.5, seed=0)
     assert cmp.agreement() >= 0.97
+
+
+@pytest.mark.ns3
+def test_ns3_says_it_cannot_snapshot(ns3):
+    # ns-3 keeps its event queue, sockets and timers in C++: there is no simulator snapshot,
+    # so runs on ns-3 are kept stage by stage but cannot be resumed or planned ahead.
+    from swarmgames.network import SnapshotUnsupported
+
+    net = ns3(seed=0)
+    net.reset(line(3, 100.0))
+    with pytest.raises(SnapshotUnsupported, match="cannot snapshot"):
+        net.state()
+    with pytest.raises(SnapshotUnsupported):
+        net.restore(None)

@@ -74,6 +74,7 @@ def test_run_folder_outputs(tmp_path):
         "paths.png",
         "animation.gif",
         "summary.json",
+        "manifest.json",
     }
     assert (tmp_path / "r" / "animation.gif").read_bytes()[:6] == b"GIF89a"
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())

@@ -32,6 +32,7 @@ per-robot measurements of the stage (information age, freshness, messages and by
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -104,6 +105,12 @@ class IdealComms:
 
     def reset(self) -> None:
         """Nothing is remembered between stages."""
+
+    def state(self) -> None:
+        """Nothing to keep: ideal delivery remembers nothing between stages."""
+
+    def restore(self, state: None) -> None:
+        """Nothing to take back (see :meth:`state`)."""
 
     def exchange(self, t: float, snapshot: TopologySnapshot, states, rng=None, active=None):
         """``(None, stats)``: the stage pipeline's default inbox (the exact broadcast) is the
@@ -193,6 +200,21 @@ class RoutedComms:
         """Forget every belief and every link's channel state (the start of a run)."""
         self.table = BeliefTable.empty(self.n_robots, self.state_dim)
         self.bad_links = np.zeros(0, dtype=np.int64)
+
+    def state(self) -> dict[str, Any]:
+        """What the robots remember between stages: the belief tables and every link's
+        Gilbert–Elliott state (both immutable: the model replaces them, never edits them)."""
+        return {"table": self.table, "bad_links": self.bad_links}
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Continue from ``state`` (taken by :meth:`state`)."""
+        table = state["table"]
+        if table.n_robots != self.n_robots:
+            raise ValueError(
+                f"this state is of {table.n_robots} robots; the model has {self.n_robots}"
+            )
+        self.table = table
+        self.bad_links = np.asarray(state["bad_links"], dtype=np.int64)
 
     def _links(self, snapshot: TopologySnapshot, pos: np.ndarray, rng) -> sp.csr_array:
         """Links a message can take now: in the transmitter's table (a 1-hop neighbour) and

@@ -436,6 +436,16 @@ class SimConfig(_Section):
             "are evaluated a second time with actual states."
         ),
     )
+    checkpoint_every: int = Field(
+        1,
+        ge=0,
+        le=1_000_000,
+        description=(
+            "Keep a checkpoint in the run folder every this many stages, so that "
+            "`swarmgames run --resume DIR` can continue an interrupted run bit for bit (0: "
+            "none; the completed stages are kept in the tables either way)."
+        ),
+    )
     animation: bool = Field(
         True, description="Write animation.gif of the swarm over the mission's background."
     )

@@ -9,7 +9,7 @@ from swarmgames.network.olsr.traffic import ControlTraffic
 from swarmgames.network.oracle import OracleProvider
 from swarmgames.network.parameters import OlsrParameters, RadioParameters
 from swarmgames.network.propagation import PropagationModel, max_range
-from swarmgames.network.provider import NeighbourhoodProvider
+from swarmgames.network.provider import NeighbourhoodProvider, NetworkState, SnapshotUnsupported
 from swarmgames.network.trace import PositionTrace, read_positions
 from swarmgames.topology import TopologySnapshot
 
@@ -20,12 +20,14 @@ __all__ = [
     "KnnProvider",
     "LinkGraph",
     "NeighbourhoodProvider",
+    "NetworkState",
     "OlsrParameters",
     "OlsrProvider",
     "OracleProvider",
     "PositionTrace",
     "PropagationModel",
     "RadioParameters",
+    "SnapshotUnsupported",
     "TopologySnapshot",
     "check_provider",
     "link_graph",

@@ -8,9 +8,12 @@ lag and no multi-hop structure.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 from scipy.spatial import cKDTree
 
+from swarmgames.network.provider import NetworkState, check_state
 from swarmgames.network.validation import check_positions, check_time
 from swarmgames.topology import TopologySnapshot
 
@@ -48,6 +51,25 @@ class _InstantProvider:
         """Move the clock to ``to_time`` without building a snapshot (nothing to simulate)."""
         check_positions(positions, self.n_robots)
         self._time = check_time(to_time, self._time)
+
+    def state(self) -> NetworkState:
+        """The provider's state: its time (and the state of its random draws, if it has any);
+        the tables are a function of the positions."""
+        rng = getattr(self, "_rng", None)
+        return NetworkState(
+            self.name,
+            self.n_robots,
+            self._time,
+            None if rng is None else copy.deepcopy(rng.bit_generator.state),
+        )
+
+    def restore(self, state: NetworkState) -> None:
+        """Continue from ``state`` (taken by :meth:`state` of a provider like this one)."""
+        check_state(self, state)
+        self._time = float(state.time)
+        rng = getattr(self, "_rng", None)
+        if rng is not None and state.rng is not None:
+            rng.bit_generator.state = copy.deepcopy(state.rng)
 
     def _snapshot(self, pos: np.ndarray) -> TopologySnapshot:  # pragma: no cover - abstract
         raise NotImplementedError

@@ -14,7 +14,10 @@ Checked:
   owner;
 * moving backwards in time raises ``ValueError``; NaN positions raise ``ValueError``;
 * a robot far from every other robot has no routes once the tables settle (30 s), for
-  providers with a radio range (``range_limited``; not the ``knn`` baseline).
+  providers with a radio range (``range_limited``; not the ``knn`` baseline);
+* a provider with ``state()``/``restore()``: restoring a state and advancing as before gives
+  the same snapshots, twice (a state is not consumed); ``SnapshotUnsupported`` from
+  ``state()`` is accepted (the provider says it cannot snapshot).
 """
 
 from __future__ import annotations
@@ -103,6 +106,7 @@ def check_provider(provider, n_robots: int = 6, range_limited: bool = True) -> N
         pass
     else:
         _fail("advance to an earlier time must raise ValueError")
+    _check_state(provider, pos)
     bad = pos.copy()
     bad[0, 0] = np.nan
     try:
@@ -111,3 +115,33 @@ def check_provider(provider, n_robots: int = 6, range_limited: bool = True) -> N
         pass
     else:
         _fail("NaN positions must raise ValueError")
+
+
+def _tables(snap: TopologySnapshot) -> tuple:
+    return tuple(getattr(snap, k).tolist() for k in ("owner", "dest", "hops", "next_hop"))
+
+
+def _check_state(provider, pos: np.ndarray) -> None:
+    """The state rule of the module docstring (from the provider's current time)."""
+    from swarmgames.network.provider import SnapshotUnsupported
+
+    if getattr(provider, "state", None) is None:
+        return
+    if getattr(provider, "restore", None) is None:
+        _fail("a provider with state() must have restore(state) too")
+    try:
+        saved = provider.state()
+    except SnapshotUnsupported:
+        return
+    t0 = provider.time
+    moved = pos.copy()
+    moved[1] = [-10_000.0, 10_000.0, 0.0]  # robot 1 leaves for 8 s (longer than hold times)
+    steps = ((8.0, moved), (20.0, pos))
+    first = [_tables(provider.advance(t0 + dt, p)) for dt, p in steps]
+    for attempt in (1, 2):
+        provider.restore(saved)
+        if not np.isclose(provider.time, t0):
+            _fail(f"restore(state) must set time back to {t0} (got {provider.time})")
+        again = [_tables(provider.advance(t0 + dt, p)) for dt, p in steps]
+        if again != first:
+            _fail(f"advancing after restore(state) (attempt {attempt}) gave other tables")

@@ -57,6 +57,7 @@ from swarmgames.errors import ConfigError
 from swarmgames.network.ns3_import import load_ns3, quiet_stderr
 from swarmgames.network.parameters import OlsrParameters, RadioParameters
 from swarmgames.network.propagation import new_shadowing_key, pair_gaussians
+from swarmgames.network.provider import NetworkState, SnapshotUnsupported
 from swarmgames.network.validation import check_positions, check_time
 from swarmgames.rng import as_generator
 from swarmgames.topology import TopologySnapshot
@@ -267,6 +268,24 @@ class Ns3Provider:
             hops=np.asarray(hops, dtype=np.int16)[keep],
             next_hop=next_i[keep],
         )
+
+    def state(self) -> NetworkState:
+        """Not available: ns-3 cannot snapshot a running simulator (its event queue, sockets
+        and timers live in C++), so a run on ns-3 cannot be resumed or planned ahead.
+
+        Raises
+        ------
+        SnapshotUnsupported
+            Always.
+        """
+        raise SnapshotUnsupported(
+            "the ns3 network cannot snapshot its state (ns-3 has no simulator snapshot): a run "
+            "on it is kept stage by stage but cannot be resumed, and cannot be planned ahead"
+        )
+
+    def restore(self, state: NetworkState) -> None:
+        """Not available (see :meth:`state`)."""
+        self.state()
 
     def close(self) -> None:
         """Destroy this provider's ns-3 scenario (a no-op if another provider took over)."""

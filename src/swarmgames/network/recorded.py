@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from swarmgames.errors import InputDataError
+from swarmgames.network.provider import NetworkState, check_state
 from swarmgames.topology import TopologySnapshot
 
 __all__ = ["RecordedProvider", "Recording", "read_recording"]
@@ -115,6 +116,15 @@ class RecordedProvider:
             raise ValueError(f"to_time must be >= the current time {self._time:g} (got {to_time})")
         self._time = float(to_time)
         return self._snapshot()
+
+    def state(self) -> NetworkState:
+        """The replay's state: its time."""
+        return NetworkState(self.name, self.n_robots, self._time)
+
+    def restore(self, state: NetworkState) -> None:
+        """Continue the replay from ``state``."""
+        check_state(self, state)
+        self._time = float(state.time)
 
     def _snapshot(self) -> TopologySnapshot:
         k = math.floor(self._time / self.sample_every + 1e-6)

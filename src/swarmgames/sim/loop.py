@@ -25,6 +25,7 @@ References
 
 from __future__ import annotations
 
+import copy
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -32,9 +33,20 @@ from typing import Any
 import numpy as np
 from scipy.sparse import csgraph, csr_array
 
+from swarmgames.arrays import freeze_fields
+from swarmgames.sim.signals import deferred_interrupts
 from swarmgames.topology import TopologySnapshot
 
-__all__ = ["StageLog", "oscillation", "run_stages", "swarm_graph_stats"]
+__all__ = [
+    "LoopState",
+    "StageLog",
+    "StageLoop",
+    "StageRecord",
+    "drive",
+    "oscillation",
+    "run_stages",
+    "swarm_graph_stats",
+]
 
 
 #: Above this many robots the hop statistics come from the routing-table entries alone
@@ -94,6 +106,43 @@ def oscillation(before: np.ndarray | None, now: np.ndarray, after: np.ndarray) -
     return float(np.mean(left & back))
 
 
+@dataclass(frozen=True, eq=False)
+class StageRecord:
+    """What one completed stage recorded (immutable).
+
+    Attributes
+    ----------
+    t : float
+        Stage time, s.
+    actions : ndarray, shape (N,)
+        Every robot's action.
+    robot : dict of (N,) arrays
+        The per-robot columns of ``metrics.csv`` (decision, communication, faults, OLSR
+        traffic, the mission's robot metrics).
+    swarm : dict of float
+        The stage's row of ``swarm.csv`` (without ``t``).
+    links : ndarray, shape (E, 2)
+        The 1-hop links of the routing tables.
+    after : ndarray, shape (N, D)
+        The states after the stage.
+    wall_s : float
+        Wall time of the stage, s.
+    """
+
+    t: float
+    actions: np.ndarray
+    robot: dict[str, np.ndarray]
+    swarm: dict[str, float]
+    links: np.ndarray
+    after: np.ndarray
+    wall_s: float
+
+    def __post_init__(self) -> None:
+        freeze_fields(self)
+        for val in self.robot.values():
+            val.flags.writeable = False
+
+
 @dataclass
 class StageLog:
     """Everything recorded by the loop; arrays are stacked over the S completed stages.
@@ -121,6 +170,46 @@ class StageLog:
     period_s: float = 1.0
     warmup_s: float = 0.0
 
+    @classmethod
+    def from_records(
+        cls,
+        start: np.ndarray,
+        records: list[StageRecord],
+        *,
+        interrupted: bool,
+        wall_s: float,
+        period_s: float,
+        warmup_s: float,
+    ) -> StageLog:
+        """Stack the records of the completed stages; ``start`` is the states before the
+        first."""
+        start = np.asarray(start, dtype=float)
+        n = start.shape[0]
+        per_robot: dict[str, list] = {}
+        swarm: dict[str, list] = {}
+        for rec in records:
+            for name, val in rec.robot.items():
+                per_robot.setdefault(name, []).append(val)
+            for name, val in rec.swarm.items():
+                swarm.setdefault(name, []).append(val)
+        return cls(
+            times=np.asarray([r.t for r in records], dtype=float),
+            states=np.stack([start, *(r.after for r in records)]),
+            actions=(
+                np.stack([r.actions for r in records])
+                if records
+                else np.zeros((0, n), dtype=np.int64)
+            ),
+            per_robot={k: np.stack(v) for k, v in per_robot.items()},
+            swarm={k: np.asarray(v) for k, v in swarm.items()},
+            links=[r.links for r in records],
+            interrupted=bool(interrupted),
+            wall_s=float(wall_s),
+            stage_s=np.asarray([r.wall_s for r in records], dtype=float),
+            period_s=float(period_s),
+            warmup_s=float(warmup_s),
+        )
+
 
 #: Per-robot columns of a decision, NaN for a robot that has crashed.
 DECISION_COLUMNS = ("payoff", "local_regret", "global_regret", "solve_ms", "integrate_ms")
@@ -147,6 +236,236 @@ def _nanmean(values: np.ndarray) -> float:
     return float(values[ok].mean()) if ok.any() else float("nan")
 
 
+@dataclass(frozen=True, eq=False)
+class LoopState:
+    """Everything the stage loop needs to continue exactly where it was (immutable).
+
+    Attributes
+    ----------
+    stage : int
+        Stages completed.
+    states, previous : ndarray
+        The states now and one stage before (``previous`` is None before the first stage).
+    snapshot : TopologySnapshot
+        The routing tables at the next stage's time.
+    network : NetworkState
+        The provider's :meth:`state`.
+    comms : Any
+        The communication model's ``state()``.
+    rng, comms_rng : dict
+        Bit-generator states of the game's and the communication model's draws.
+    metric_names : tuple of str
+        The mission's swarm metrics (NaN rows once no robot is left).
+    """
+
+    stage: int
+    states: np.ndarray
+    previous: np.ndarray | None
+    snapshot: TopologySnapshot
+    network: Any
+    comms: Any
+    rng: dict
+    comms_rng: dict | None
+    metric_names: tuple[str, ...]
+
+
+class StageLoop:
+    """The stage loop as an object that can be stepped, snapshotted and restored.
+
+    Parameters
+    ----------
+    provider : NeighbourhoodProvider
+        Network; reset at time 0 and advanced to ``warmup_s`` by :meth:`start`.
+    controller : object with ``decide(snapshot, states, rng, inbox=None) -> StageSolution``
+        The game controller or the Lloyd baseline (:mod:`swarmgames.sim.controllers`).
+    mission : Mission
+        Its ``swarm_metrics`` (and ``robot_metrics``, if any) are recorded every stage.
+    period_s, warmup_s : float
+        Control period and the network's warm-up before the first stage, s.
+    rng : numpy.random.Generator
+        The game's draws.
+    comms : IdealComms or RoutedComms, optional
+        The communication model (:mod:`swarmgames.comms`); default: ideal delivery.
+    comms_rng : numpy.random.Generator, optional
+        The communication model's draws (losses, fading).
+    faults : Faults, optional
+        Crashes, radio failures and jamming (:mod:`swarmgames.sim.faults`); default: none.
+        A crashed robot holds its state (velocities zeroed) and its decision columns are
+        NaN; robots without a radio are out of everyone's range for the network and the
+        communication layer; the mission's metrics count the robots alive, where they are.
+
+    Notes
+    -----
+    :meth:`state` and :meth:`restore` make a run resumable (``swarmgames run --resume``):
+    restoring a state and stepping gives bit for bit the records the loop gave after that
+    state was taken. They need the provider's ``state``/``restore``; the controller and the
+    mission hold no state between stages (their results are functions of their arguments).
+    """
+
+    def __init__(
+        self,
+        *,
+        provider: Any,
+        controller: Any,
+        mission: Any,
+        period_s: float,
+        warmup_s: float,
+        rng: np.random.Generator,
+        comms: Any = None,
+        comms_rng: np.random.Generator | None = None,
+        faults: Any = None,
+    ) -> None:
+        self.provider, self.controller, self.mission = provider, controller, mission
+        self.period_s, self.warmup_s = float(period_s), float(warmup_s)
+        self.rng, self.comms_rng = rng, comms_rng
+        if comms is None:
+            from swarmgames.comms import IdealComms
+
+            comms = IdealComms(getattr(controller, "hops", 1))
+        self.comms = comms
+        self.faults = faults
+        self._robot_metrics = getattr(mission, "robot_metrics", None)
+        self._control = getattr(provider, "control_traffic", None)  # OLSR's own messages
+        self.stage = 0
+        self.states: np.ndarray | None = None
+        self._prev: np.ndarray | None = None
+        self._snap: TopologySnapshot | None = None
+        self._metric_names: tuple[str, ...] = ()
+
+    def start(self, states: np.ndarray) -> None:
+        """Place the robots at ``states`` at time 0, run the network through the warm-up
+        and forget every message."""
+        pos = np.array(states, dtype=float)
+        n = pos.shape[0]
+        if self.faults is None:
+            from swarmgames.sim.faults import Faults
+
+            self.faults = Faults.none(n)
+        f = self.faults
+        self.comms.reset()
+        self.provider.reset(f.network_positions(pos, f.radio(0.0, pos)), 0.0)
+        self._snap = self.provider.advance(
+            self.warmup_s, f.network_positions(pos, f.radio(0.0, pos))
+        )
+        if self._control is not None:
+            self._control()  # the warm-up's traffic is not part of any stage
+        self.stage, self.states, self._prev, self._metric_names = 0, pos, None, ()
+
+    def step(self) -> StageRecord:
+        """Run the next stage and return its record."""
+        if self.states is None:
+            raise RuntimeError("call start(states) before step()")
+        t_stage = time.perf_counter()
+        pos, prev, snap, f = self.states, self._prev, self._snap, self.faults
+        n = pos.shape[0]
+        t = self.warmup_s + self.stage * self.period_s
+        alive, radio = f.alive(t), f.radio(t, pos)
+        inbox, heard = self.comms.exchange(t, snap, pos, self.comms_rng, active=radio)
+        dec = self.controller.decide(snap, pos, self.rng, inbox=inbox)
+        mean_h, max_h, n_comp, edges = swarm_graph_stats(snap)
+        if alive.any():
+            measured = self.mission.swarm_metrics(pos[alive], None if prev is None else prev[alive])
+        else:  # nothing left to measure
+            measured = dict.fromkeys(self._metric_names, float("nan"))
+        extra = self._robot_metrics(pos) if self._robot_metrics is not None else {}
+        new_pos = np.array(dec.next_states, dtype=float)
+        new_pos[~alive] = pos[~alive]
+        new_pos[~alive, 3:] = 0.0  # a crashed robot stops
+        t_next = t + self.period_s
+        snap_next = self.provider.advance(
+            t_next, f.network_positions(new_pos, f.radio(t_next, new_pos))
+        )
+        if self._control is not None:  # sent during this period; a silenced robot sends none
+            olsr = self._control()
+            columns_olsr = {
+                "olsr_messages": np.where(radio, olsr.messages, 0),
+                "olsr_bytes": np.where(radio, olsr.bytes, 0),
+            }
+        else:
+            columns_olsr = {}
+        columns = {**_robot_columns(dec, n), **heard.columns()}
+        for name in DECISION_COLUMNS:  # a crashed robot decides nothing
+            columns[name] = np.where(alive, columns[name], np.nan)
+        columns.update(alive=alive, radio=radio, **columns_olsr, **extra)
+        row = {"mean_payoff": _nanmean(np.where(alive, dec.payoff, np.nan))}
+        row.update((name, float(v)) for name, v in measured.items())
+        row.update(
+            mean_hops=mean_h,
+            max_hops=max_h,
+            components=n_comp,
+            oscillation=oscillation(prev, pos, new_pos),
+            mean_info_age_s=_nanmean(heard.info_age_s),
+            bytes_per_robot=float(np.mean(heard.bytes_sent + heard.bytes_forwarded) if n else 0.0),
+            alive_robots=int(alive.sum()),
+        )
+        if columns_olsr:
+            row["olsr_bytes_per_robot"] = float(np.mean(columns_olsr["olsr_bytes"]))
+        record = StageRecord(
+            t=t,
+            actions=np.asarray(dec.actions, dtype=np.int64),
+            robot={name: np.array(val) for name, val in columns.items()},
+            swarm=row,
+            links=edges,
+            after=new_pos,
+            wall_s=time.perf_counter() - t_stage,
+        )
+        # The loop moves on only once the stage is complete (Ctrl-C keeps whole stages).
+        self._metric_names = tuple(measured)
+        self.stage, self._prev, self.states, self._snap = self.stage + 1, pos, new_pos, snap_next
+        return record
+
+    def state(self) -> LoopState:
+        """Everything needed to continue from here (see the class notes).
+
+        Raises
+        ------
+        SnapshotUnsupported
+            The provider cannot snapshot its state (ns-3), or has no ``state`` method.
+        """
+        from swarmgames.network.provider import SnapshotUnsupported
+
+        if self.states is None:
+            raise RuntimeError("call start(states) before state()")
+        take = getattr(self.provider, "state", None)
+        if take is None:
+            raise SnapshotUnsupported(
+                f"the network provider {getattr(self.provider, 'name', '?')!r} has no "
+                "state()/restore(), so the run cannot be checkpointed"
+            )
+        return LoopState(
+            stage=self.stage,
+            states=self.states.copy(),
+            previous=None if self._prev is None else self._prev.copy(),
+            snapshot=self._snap,
+            network=take(),
+            comms=self.comms.state(),
+            rng=copy.deepcopy(self.rng.bit_generator.state),
+            comms_rng=(
+                None
+                if self.comms_rng is None
+                else copy.deepcopy(self.comms_rng.bit_generator.state)
+            ),
+            metric_names=self._metric_names,
+        )
+
+    def restore(self, state: LoopState) -> None:
+        """Continue from ``state`` (taken by :meth:`state` of a loop built the same way)."""
+        if self.faults is None:
+            from swarmgames.sim.faults import Faults
+
+            self.faults = Faults.none(state.states.shape[0])
+        self.provider.restore(state.network)
+        self.comms.restore(state.comms)
+        self.rng.bit_generator.state = copy.deepcopy(state.rng)
+        if self.comms_rng is not None and state.comms_rng is not None:
+            self.comms_rng.bit_generator.state = copy.deepcopy(state.comms_rng)
+        self.stage = int(state.stage)
+        self.states = np.array(state.states, dtype=float)
+        self._prev = None if state.previous is None else np.array(state.previous, dtype=float)
+        self._snap = state.snapshot
+        self._metric_names = tuple(state.metric_names)
+
+
 def run_stages(
     *,
     provider: Any,
@@ -162,128 +481,79 @@ def run_stages(
     comms_rng: np.random.Generator | None = None,
     faults: Any = None,
 ) -> StageLog:
-    """Run ``n_stages`` stages and return the :class:`StageLog`.
+    """Run ``n_stages`` stages of a :class:`StageLoop` from ``states`` and return the
+    :class:`StageLog` (the parameters are those of :class:`StageLoop`).
 
     Parameters
     ----------
-    provider : NeighbourhoodProvider
-        Network; reset at time 0 and advanced to ``warmup_s`` before the first stage.
-    controller : object with ``decide(snapshot, states, rng) -> StageSolution``
-        The game controller or the Lloyd baseline (:mod:`swarmgames.sim.controllers`).
-    mission : Mission
-        Its ``swarm_metrics`` (and ``robot_metrics``, if any) are recorded every stage.
     states : ndarray, shape (N, D)
         Start states; the first three columns are positions (x, y, z) in metres (the network
         sees only those).
     progress : callable ``(done: int) -> None``, optional
         Called after every stage.
-    comms : IdealComms or RoutedComms, optional
-        The communication model (:mod:`swarmgames.comms`); default: ideal delivery. Its
-        per-robot measurements join ``per_robot``.
-    comms_rng : numpy.random.Generator, optional
-        The communication model's draws (losses, fading).
-    faults : Faults, optional
-        Crashes, radio failures and jamming (:mod:`swarmgames.sim.faults`); default: none.
-        A crashed robot holds its state (velocities zeroed) and its per-robot measures are
-        NaN; robots without a radio are out of everyone's range for the network and the
-        communication layer; the mission's metrics count the robots alive, where they are.
     """
-    pos = np.array(states, dtype=float)
-    n = pos.shape[0]
-    times, traj, acts, stage_s, links = [], [pos.copy()], [], [], []
-    per_robot: dict[str, list] = {}
-    swarm: dict[str, list] = {}
+    loop = StageLoop(
+        provider=provider,
+        controller=controller,
+        mission=mission,
+        period_s=period_s,
+        warmup_s=warmup_s,
+        rng=rng,
+        comms=comms,
+        comms_rng=comms_rng,
+        faults=faults,
+    )
+    return drive(loop, states, n_stages, progress=progress)
+
+
+def drive(
+    loop: StageLoop,
+    start: np.ndarray,
+    n_stages: int,
+    *,
+    records: list[StageRecord] | None = None,
+    progress: Any = None,
+    on_stage: Any = None,
+    wall_s: float = 0.0,
+) -> StageLog:
+    """Step ``loop`` until ``n_stages`` stages are complete or Ctrl-C stops it.
+
+    Parameters
+    ----------
+    loop : StageLoop
+        Started (:meth:`StageLoop.start` from ``start``) or restored after
+        ``len(records)`` stages.
+    start : ndarray, shape (N, D)
+        The states before the first stage.
+    records : list of StageRecord, optional
+        The stages completed before (a resumed run); extended in place.
+    progress : callable ``(done: int) -> None``, optional
+    on_stage : callable ``(record, loop) -> None``, optional
+        Called after every stage (the run folder's journal appends it).
+    wall_s : float
+        Wall time already spent on the run (a resumed run), s.
+    """
+    records = [] if records is None else records
+    if loop.states is None:
+        loop.start(start)
     interrupted = False
-    t_start = time.perf_counter()
-    robot_metrics = getattr(mission, "robot_metrics", None)
-    prev = None
-    if comms is None:
-        from swarmgames.comms import IdealComms
-
-        comms = IdealComms(getattr(controller, "hops", 1))
-    comms.reset()
-    if faults is None:
-        from swarmgames.sim.faults import Faults
-
-        faults = Faults.none(n)
-    measured: dict[str, float] = {}
+    t0 = time.perf_counter()
     try:
-        provider.reset(faults.network_positions(pos, faults.radio(0.0, pos)), 0.0)
-        snap = provider.advance(warmup_s, faults.network_positions(pos, faults.radio(0.0, pos)))
-        control = getattr(provider, "control_traffic", None)  # OLSR's own messages, if any
-        if control is not None:
-            control()  # the warm-up's traffic is not part of any stage
-        for k in range(n_stages):
-            t_stage = time.perf_counter()
-            t = warmup_s + k * period_s
-            alive, radio = faults.alive(t), faults.radio(t, pos)
-            inbox, heard = comms.exchange(t, snap, pos, comms_rng, active=radio)
-            dec = controller.decide(snap, pos, rng, inbox=inbox)
-            mean_h, max_h, n_comp, edges = swarm_graph_stats(snap)
-            if alive.any():
-                measured = mission.swarm_metrics(pos[alive], None if prev is None else prev[alive])
-            else:  # nothing left to measure
-                measured = dict.fromkeys(measured, float("nan"))
-            extra = robot_metrics(pos) if robot_metrics is not None else {}
-            new_pos = np.array(dec.next_states, dtype=float)
-            new_pos[~alive] = pos[~alive]
-            new_pos[~alive, 3:] = 0.0  # a crashed robot stops
-            t_next = t + period_s
-            net_pos = faults.network_positions(new_pos, faults.radio(t_next, new_pos))
-            snap_next = provider.advance(t_next, net_pos)
-            if control is not None:  # sent during this period; a silenced robot sends none
-                olsr = control()
-                columns_olsr = {
-                    "olsr_messages": np.where(radio, olsr.messages, 0),
-                    "olsr_bytes": np.where(radio, olsr.bytes, 0),
-                }
-            else:
-                columns_olsr = {}
-            # A stage is recorded only once it is complete (Ctrl-C keeps whole stages).
-            times.append(t)
-            acts.append(np.asarray(dec.actions, dtype=np.int64))
-            columns = {**_robot_columns(dec, n), **heard.columns()}
-            for name in DECISION_COLUMNS:  # a crashed robot decides nothing
-                columns[name] = np.where(alive, columns[name], np.nan)
-            columns.update(alive=alive, radio=radio, **columns_olsr, **extra)
-            for name, val in columns.items():
-                per_robot.setdefault(name, []).append(np.asarray(val))
-            row = {"mean_payoff": _nanmean(np.where(alive, dec.payoff, np.nan))}
-            row.update((name, float(v)) for name, v in measured.items())
-            row.update(
-                mean_hops=mean_h,
-                max_hops=max_h,
-                components=n_comp,
-                oscillation=oscillation(prev, pos, new_pos),
-                mean_info_age_s=_nanmean(heard.info_age_s),
-                bytes_per_robot=float(
-                    np.mean(heard.bytes_sent + heard.bytes_forwarded) if n else 0.0
-                ),
-                alive_robots=int(alive.sum()),
-            )
-            if columns_olsr:
-                row["olsr_bytes_per_robot"] = float(np.mean(columns_olsr["olsr_bytes"]))
-            for name, val in row.items():
-                swarm.setdefault(name, []).append(val)
-            links.append(edges)
-            prev, pos, snap = pos, new_pos, snap_next
-            traj.append(pos.copy())
-            stage_s.append(time.perf_counter() - t_stage)
+        while loop.stage < n_stages:
+            record = loop.step()
+            with deferred_interrupts():  # a stage is kept everywhere or nowhere
+                records.append(record)
+                if on_stage is not None:
+                    on_stage(record, loop)
             if progress is not None:
-                progress(k + 1)
+                progress(loop.stage)
     except KeyboardInterrupt:
         interrupted = True
-    s = len(times)
-    return StageLog(
-        times=np.asarray(times, dtype=float),
-        states=np.stack(traj[: s + 1]),
-        actions=np.stack(acts) if acts else np.zeros((0, n), dtype=np.int64),
-        per_robot={k: np.stack(v) for k, v in per_robot.items()},
-        swarm={k: np.asarray(v) for k, v in swarm.items()},
-        links=links,
+    return StageLog.from_records(
+        start,
+        records,
         interrupted=interrupted,
-        wall_s=time.perf_counter() - t_start,
-        stage_s=np.asarray(stage_s),
-        period_s=float(period_s),
-        warmup_s=float(warmup_s),
+        wall_s=wall_s + time.perf_counter() - t0,
+        period_s=loop.period_s,
+        warmup_s=loop.warmup_s,
     )

@@ -50,7 +50,7 @@ def _swarm(log) -> pd.DataFrame:
     cols: dict[str, Any] = {"t": log.times}
     names = ["mean_payoff"] + [k for k in log.swarm if k not in ("mean_payoff", *NETWORK_COLUMNS)]
     for name in names + [c for c in NETWORK_COLUMNS if c in log.swarm]:
-        cols[name] = log.swarm[name]
+        cols[name] = log.swarm.get(name, np.zeros(0))  # no stage: no mean_payoff either
     return pd.DataFrame(cols)
 
 
@@ -209,7 +209,6 @@ class RunResult:
     def write(self, folder, animation: bool = True, frames: int = 60) -> list:
         """Write config.toml, the CSVs, the PNGs, animation.gif and summary.json."""
         from swarmgames.config import to_toml
-        from swarmgames.sim.animation import render_gif
 
         written = [
             folder.write_text("config.toml", to_toml(self.config)),
@@ -217,6 +216,15 @@ class RunResult:
             folder.write_csv("metrics.csv", self.metrics),
             folder.write_csv("swarm.csv", self.swarm),
         ]
+        self.files = written + self.write_outputs(folder, animation, frames)
+        return self.files
+
+    def write_outputs(self, folder, animation: bool = True, frames: int = 60) -> list:
+        """Write what is made from the tables at the end: the PNGs, animation.gif and
+        summary.json (a run's journal has appended the tables stage by stage)."""
+        from swarmgames.sim.animation import render_gif
+
+        written = []
         if len(self.swarm):
             fig = self.plot()
             written.append(folder.save_figure("timeseries.png", fig))

@@ -15,7 +15,7 @@ import threading
 from collections.abc import Iterator
 from typing import Any
 
-__all__ = ["INTERRUPT_SIGNALS", "signals_interrupt"]
+__all__ = ["INTERRUPT_SIGNALS", "deferred_interrupts", "signals_interrupt"]
 
 #: The signals that stop a run like Ctrl-C (those this platform has).
 INTERRUPT_SIGNALS = tuple(
@@ -54,3 +54,42 @@ def signals_interrupt() -> Iterator[None]:
         for sig, handler in previous.items():
             # None: a handler installed from C, which Python cannot reinstall.
             signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+
+
+@contextlib.contextmanager
+def deferred_interrupts() -> Iterator[None]:
+    """Hold Ctrl-C, SIGTERM and SIGHUP until the end of the ``with`` block, then raise
+    ``KeyboardInterrupt`` if one came.
+
+    For the few steps that must not be cut in two: a completed stage is appended to all the
+    files of its run folder, or to none. Outside the main thread it does nothing.
+
+    Examples
+    --------
+    >>> import os, signal
+    >>> try:
+    ...     with deferred_interrupts():
+    ...         os.kill(os.getpid(), signal.SIGINT)
+    ...         print("still running")
+    ... except KeyboardInterrupt:
+    ...     print("interrupted after the block")
+    still running
+    interrupted after the block
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+
+    def hold(signum: int, frame: Any) -> None:
+        caught.append(signum)
+
+    sigs = (signal.SIGINT, *INTERRUPT_SIGNALS)
+    previous = {sig: signal.signal(sig, hold) for sig in sigs}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, signal.SIG_DFL if handler is None else handler)
+    if caught:
+        raise KeyboardInterrupt(f"stopped by {signal.Signals(caught[0]).name}")

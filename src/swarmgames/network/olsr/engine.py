@@ -49,6 +49,9 @@ References
 
 from __future__ import annotations
 
+import copy
+from typing import Any
+
 import numpy as np
 
 from swarmgames.arrays import csr_gather
@@ -135,6 +138,19 @@ class OlsrEngine:
         self._tx_fwd = np.zeros(0, dtype=bool)
         self._traffic_since = float(start_time)
         self._traffic = self._zero_traffic()
+
+    #: Attributes that are configuration or shared, not state (see :meth:`state`).
+    _NOT_STATE = frozenset({"cfg", "rng", "n", "hello_only", "_nn"})
+
+    def state(self) -> dict[str, Any]:
+        """A deep copy of every mutable attribute (tables, queues, timers, counters); the
+        configuration and the random generator (the provider's) are not part of it."""
+        return {k: copy.deepcopy(v) for k, v in vars(self).items() if k not in self._NOT_STATE}
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Take back a :meth:`state` (copied again, so that it can be restored many times)."""
+        for k, v in state.items():
+            setattr(self, k, copy.deepcopy(v))
 
     # ------------------------------------------------------------------ event loop
     def run_until(self, to_time: float, graph: LinkGraph) -> None:
