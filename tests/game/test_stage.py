@@ -62,6 +62,29 @@ def test_global_regret_reuses_the_solved_tables(virtual_mean):
     assert np.isnan(skipped.global_regret).all()
 
 
+def test_global_regret_with_an_inbox_reevaluates_only_games_it_got_wrong():
+    # With routed delivery, a robot's game is the true one when every member's state reached
+    # it unchanged: those tables are reused, and only games holding a stale (here: shifted)
+    # state are evaluated again; the result equals rebuilding every true game.
+    from dataclasses import replace
+
+    from swarmgames.game.local import broadcast
+
+    pos, snap = _swarm(15, 5)
+    solver = make_solver("mean_field", alpha_b=0.5)
+    truth = broadcast(snap, 2, pos)
+    stale = pos.copy()
+    stale[3, :2] += 7.0  # robot 3's message is old: its reported position is off
+    inbox = replace(truth, state=stale)
+    wrong = np.array([3 in truth.neighbourhood(i) for i in range(15)])
+    assert 0 < wrong.sum() < 15
+    pot = _Counting(POT)
+    out = solve_stage(solver, snap, 2, pos, MODEL, pot, virtual_mean=False, inbox=inbox)
+    assert pot.games == 15 + int(wrong.sum())
+    ref = stage_regret(snap, 2, pos, MODEL, POT, out.actions, 1.0, 0.5)
+    np.testing.assert_array_equal(out.global_regret, ref)
+
+
 def test_measure_stage_scores_given_actions_on_the_true_games():
     pos, snap = _swarm(12, 6)
     solver = make_solver("mean_field", alpha_b=0.5)

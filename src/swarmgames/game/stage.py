@@ -361,24 +361,35 @@ def solve_stage(
 def _global_regret(
     rec: _Record, solver, messages, batches, action_model, potentials, exact: bool
 ) -> None:
-    """Global regret from the solved games' tables where they are the true games (exact
-    delivery, no virtual mean); the other games are rebuilt with actual states and true
-    neighbourhoods and evaluated again."""
+    """Global regret from the solved games' tables where they are the true games (no virtual
+    mean, and the members and states the robot knew are the actual ones: always with exact
+    delivery, and with routed delivery wherever every message arrived unchanged); the other
+    games are rebuilt with actual states and true neighbourhoods and evaluated again."""
     for owners, batch, pay in batches:
-        if not exact:
-            _, true_pay, _, _ = evaluate_games(
-                solver, messages, owners, action_model, potentials, virtual_mean=False
-            )
-            rec.global_regret[owners] = global_regret(true_pay, rec.actions)
-            continue
         rec.global_regret[owners] = global_regret(pay, rec.actions)
-        virtual = np.asarray(batch.is_virtual).any(axis=1)
-        if virtual.any():
-            redo = owners[virtual]
+        redo = np.asarray(batch.is_virtual).any(axis=1)
+        if not exact:
+            redo |= ~_knows_the_truth(batch, messages.views(owners))
+        if redo.any():
             _, true_pay, _, _ = evaluate_games(
-                solver, messages, redo, action_model, potentials, virtual_mean=False
+                solver, messages, owners[redo], action_model, potentials, virtual_mean=False
             )
-            rec.global_regret[redo] = global_regret(true_pay, rec.actions)
+            rec.global_regret[owners[redo]] = global_regret(true_pay, rec.actions)
+
+
+def _knows_the_truth(batch: LocalGameBatch, truth) -> np.ndarray:
+    """Whether each game of ``batch`` has exactly the members and states of the true views
+    ``truth`` (then, without virtual means, it is the true local game), shape (B,)."""
+    k = max(batch.members.shape[1], truth.members.shape[1])
+
+    def pad(a, fill):
+        width = [(0, 0)] * a.ndim
+        width[1] = (0, k - a.shape[1])
+        return np.pad(a, width, constant_values=fill)
+
+    same = (pad(batch.members, -1) == pad(truth.members, -1)).all(axis=1)
+    same &= (pad(batch.states, 0.0) == pad(truth.states, 0.0)).all(axis=(1, 2))
+    return same
 
 
 def _in_robot_order(groups, sols) -> dict:
