@@ -177,11 +177,11 @@ class CommsConfig(_Section):
     """How state messages reach the robots (the communication layer, docs/comms.md)."""
 
     model: Literal[COMMS_MODELS] = Field(
-        "ideal",
+        "routed",
         description=(
-            "'ideal': every member of N_i(h) gets the exact state instantly and for free; "
-            "'routed': messages flooded hop by hop over the links that exist now, with delay "
-            "and loss, into belief tables."
+            "'routed' (default): messages flooded hop by hop over the links that exist now, "
+            "with delay and loss, into belief tables; 'ideal': every member of N_i(h) gets "
+            "the exact state instantly and for free (the paper's assumption)."
         ),
     )
     hop_delay_s: float = Field(

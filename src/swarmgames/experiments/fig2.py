@@ -134,7 +134,10 @@ def reproduce_fig2(
     sizes : sequence of int
         Swarm sizes (default 3, 5, 7, 10, 20).
     base : ScenarioConfig, optional
-        Scenario the runs share (default: the default scenario).
+        Scenario the runs share (default: the default scenario with ``comms.model =
+        "ideal"``: the paper's runs gave every robot its neighbours' exact states, and with
+        routed messages the virtual means differ, each S̄_j being the mean of what robot j
+        has heard).
     seed : int
         Seed of every run (same take-off draw for both virtual-mean settings).
     duration_s : float, optional
@@ -156,7 +159,8 @@ def reproduce_fig2(
     from swarmgames.sim import run
     from swarmgames.sim.progress import ProgressBar
 
-    base = ScenarioConfig() if base is None else base
+    if base is None:
+        base = ScenarioConfig().with_overrides({"comms.model": "ideal"})
     sizes = [int(n) for n in sizes]
     if not sizes or min(sizes) < 1:
         raise ConfigError(f"sizes must be a non-empty list of integers >= 1 (got {sizes})")
