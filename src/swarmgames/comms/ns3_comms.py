@@ -111,6 +111,8 @@ class Ns3Comms(BeliefComms):
     def reset(self) -> None:
         """Forget every belief; the sockets are reopened at the next exchange."""
         super().reset()
+        if self._flood is not None:
+            self._flood.close()
         self._flood = None
         self.receptions = self.transmissions = None
 

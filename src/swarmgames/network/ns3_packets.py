@@ -56,6 +56,8 @@ STATE_PORT = 5800
 _CPP = r"""
 #include <cstring>
 #include <limits>
+#include <stdexcept>
+#include <string>
 #include <unordered_map>
 
 namespace swarmgames_ns3 {
@@ -92,7 +94,9 @@ class StateFlood {
             m_node[node->GetId()] = i;
             m_context.push_back(node->GetId());
             auto s = ns3::Socket::CreateSocket(node, ns3::UdpSocketFactory::GetTypeId());
-            s->Bind(ns3::InetSocketAddress(ns3::Ipv4Address::GetAny(), port));
+            if (s->Bind(ns3::InetSocketAddress(ns3::Ipv4Address::GetAny(), port)) < 0)
+                throw std::runtime_error("UDP port " + std::to_string(port) + " is taken on node "
+                                         + std::to_string(i) + " (an open StateFlood?)");
             s->SetAllowBroadcast(true);
             s->SetRecvCallback(ns3::MakeCallback(&StateFlood::Receive, this));
             m_sockets.push_back(s);
@@ -101,6 +105,14 @@ class StateFlood {
     ~StateFlood() {  // the sockets may outlive this object inside ns-3
         for (auto& s : m_sockets)
             s->SetRecvCallback(ns3::MakeNullCallback<void, ns3::Ptr<ns3::Socket>>());
+    }
+    // Free the port (only while the scenario that owns the sockets runs).
+    void Close() {
+        for (auto& s : m_sockets) {
+            s->SetRecvCallback(ns3::MakeNullCallback<void, ns3::Ptr<ns3::Socket>>());
+            s->Close();
+        }
+        m_sockets.clear();
     }
     // links (CSR over transmitters): receiver v counts frames of transmitter u.
     void SetLinks(const int64_t* indptr, const int64_t* indices) {
@@ -285,7 +297,8 @@ class StateFlood:
     Raises
     ------
     RuntimeError
-        If the provider's scenario was destroyed or never built.
+        If the provider's scenario was destroyed or never built, or ``port`` is taken on its
+        nodes (by another open :class:`StateFlood`: close it first).
     ValueError
         If ``ttl`` is out of range.
     """
@@ -298,8 +311,16 @@ class StateFlood:
         self._nodes = provider.nodes
         self.n_robots = int(self._nodes.GetN())
         self.ttl = int(ttl)
-        with quiet_stderr():
-            self._flood = _helper(self._ns).StateFlood(self._nodes, int(port), self.ttl)
+        try:
+            with quiet_stderr():
+                self._flood = _helper(self._ns).StateFlood(self._nodes, int(port), self.ttl)
+        except TypeError as exc:  # cppyy reports the C++ exception among the overloads
+            if "is taken" not in str(exc):
+                raise
+            raise RuntimeError(
+                f"UDP port {port} is taken on the provider's nodes: close() the StateFlood that "
+                "holds it (reset its communication model) first"
+            ) from None
 
     @property
     def live(self) -> bool:
@@ -308,6 +329,11 @@ class StateFlood:
             return self.provider.nodes is self._nodes
         except RuntimeError:
             return False
+
+    def close(self) -> None:
+        """Close the sockets, freeing the port (nothing to do once the scenario is gone)."""
+        if self.live:
+            self._flood.Close()
 
     @property
     def now(self) -> float:
