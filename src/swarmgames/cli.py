@@ -205,8 +205,9 @@ def reproduce(
     comms-cost  payload bytes per robot and stage of local games, a centralised
           controller and swarm-wide flooding for N = 10 ... 10 000, over --seeds
     comms-ns3  delivery ratio and age on arrival by hop count of the built-in routed
-          flooding and of UDP packets in ns-3, on the recorded static_20 and
-          waypoint_20 traces, ns-3 runs --seeds + 1 (needs ns-3)
+          flooding and of UDP packets in ns-3, and OLSR's control traffic as the
+          built-in model counts it and as ns-3 sends it, on the recorded static_20
+          and waypoint_20 traces, ns-3 runs --seeds + 1 (needs ns-3)
     all   fig1 and fig2, into OUT/fig1 and OUT/fig2
 
     --set overrides apply to the default scenario the figures start from.
@@ -255,7 +256,7 @@ def reproduce(
         res4.write(folders["comms-cost"])
         click.echo(f"Communication cost: {len(res4.frame)} rows -> {folders['comms-cost'].path}/")
     if "comms-ns3" in folders:
-        from swarmgames.experiments.comms_ns3 import compare_delivery
+        from swarmgames.experiments.comms_ns3 import compare_control_traffic, compare_delivery
 
         c = base.comms
         res5 = compare_delivery(
@@ -266,6 +267,7 @@ def reproduce(
             decide_after_s=c.decide_after_s,
         )
         res5.write(folders["comms-ns3"])
+        compare_control_traffic(runs=[k + 1 for k in chosen]).write(folders["comms-ns3"])
         click.echo(
             f"Delivery, routed and ns-3: {len(res5.frame)} rows -> {folders['comms-ns3'].path}/"
         )

@@ -16,6 +16,11 @@ table, the message counts as delivered when r holds it at the decision
 (``decide_after_s`` after it was sent); its age on arrival is its arrival minus its
 timestamp. Per trace, model, ns-3 run and d: the delivery ratio and the mean age on arrival;
 :meth:`DeliveryComparison.aggregate` gives their mean and spread over the runs.
+
+:func:`compare_control_traffic` holds the built-in OLSR model's count of its control traffic
+(:mod:`swarmgames.network.olsr.traffic`, with TCs on, as ns-3 always sends them) against the
+packets ns-3's OLSR sends on the same trace
+(:class:`~swarmgames.network.ns3_olsr_traffic.Ns3OlsrTraffic`).
 """
 
 from __future__ import annotations
@@ -31,9 +36,19 @@ from swarmgames.comms import RoutedComms
 from swarmgames.comms.ns3_comms import Ns3Comms
 from swarmgames.errors import ConfigError
 from swarmgames.network.ns3_backend import Ns3Provider
+from swarmgames.network.ns3_olsr_traffic import Ns3OlsrTraffic
+from swarmgames.network.olsr.provider import OlsrProvider
+from swarmgames.network.olsr.wire import UDP_IP_HEADER
+from swarmgames.network.parameters import OlsrParameters
 from swarmgames.network.trace import PositionTrace
 
-__all__ = ["DEFAULT_TRACES", "DeliveryComparison", "compare_delivery"]
+__all__ = [
+    "DEFAULT_TRACES",
+    "ControlTrafficComparison",
+    "DeliveryComparison",
+    "compare_control_traffic",
+    "compare_delivery",
+]
 
 #: The recorded traces compared by default.
 DEFAULT_TRACES = ("static_20", "waypoint_20")
@@ -107,6 +122,20 @@ def _trace(name: str) -> PositionTrace:
     return PositionTrace.from_frame(SCENARIOS[name][0](), source=name)
 
 
+def _checked(traces: Sequence[str], runs: Sequence[int]) -> tuple[list[str], list[int]]:
+    traces, runs = list(traces), [int(r) for r in runs]
+    if not traces or not runs or min(runs) < 1:
+        raise ConfigError(f"traces and runs (>= 1) must not be empty (got {traces}, {runs})")
+    return traces, runs
+
+
+def _follow(net, trace: PositionTrace, until: float) -> None:
+    """Step ``net`` through the trace's motion up to ``until``."""
+    for tt in trace.times[(trace.times > net.time) & (trace.times < until)]:
+        net.step(float(tt), trace.at(tt))
+    net.step(float(until), trace.at(until))
+
+
 def _member_rows(snapshot, hops: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(sender, member, distance) of every member of every robot's N_s(h), itself excluded."""
     keep = np.asarray(snapshot.hops) <= hops
@@ -175,9 +204,7 @@ def compare_delivery(
     BackendUnavailableError
         Without the ns-3 package.
     """
-    traces, runs = list(traces), [int(r) for r in runs]
-    if not traces or not runs or min(runs) < 1:
-        raise ConfigError(f"traces and runs (>= 1) must not be empty (got {traces}, {runs})")
+    traces, runs = _checked(traces, runs)
     rows = []
     for name in traces:
         trace = _trace(name)
@@ -195,10 +222,9 @@ def compare_delivery(
             sums = {m: {"bytes": 0.0} for m in models}
             per_hop = {m: {} for m in models}
             for t in stages:
-                for tt in trace.times[(trace.times > net.time) & (trace.times < t)]:
-                    net.step(float(tt), trace.at(tt))  # follow the motion between stages
+                _follow(net, trace, float(t))
                 pos = trace.at(t)
-                snap = net.advance(float(t), pos)
+                snap = net.snapshot()
                 sender, member, dist = _member_rows(snap, hops)
                 for model, comms in models.items():
                     _, stats = comms.exchange(float(t), snap, pos, rng)
@@ -230,3 +256,136 @@ def compare_delivery(
                         }
                     )
     return DeliveryComparison(pd.DataFrame(rows, columns=[*KEYS, *_VALUES]))
+
+
+@dataclass(frozen=True, eq=False)
+class ControlTrafficComparison:
+    """OLSR's control traffic per robot and second, built-in model against ns-3.
+
+    Attributes
+    ----------
+    frame : DataFrame
+        One row per trace, backend (``olsr``: the built-in count; ``ns3``: ns-3's packets)
+        and run: ``hello_per_s``, ``tc_per_s`` (originated and relayed), ``packets_per_s``,
+        ``bytes_per_s`` (OLSR packets: packet headers and messages), ``on_air_bytes_per_s``
+        (with 28 bytes of UDP/IP per packet), ``hello_bytes`` (per HELLO message, without the
+        packet header) and ``shared_packets`` (share of packets with more than one message).
+    """
+
+    frame: pd.DataFrame
+
+    def aggregate(self) -> pd.DataFrame:
+        """Mean and standard deviation over the runs, per trace and backend."""
+        grp = self.frame.groupby(["trace", "backend"], sort=True)
+        out = grp[list(_TRAFFIC)].agg(["mean", "std"])
+        out.columns = [f"{a}_{b}" for a, b in out.columns]
+        return out.reset_index()
+
+    def write(self, folder) -> list:
+        """Write ``olsr_traffic.csv`` and ``olsr_traffic_aggregate.csv`` into a RunFolder."""
+        return [
+            folder.write_csv("olsr_traffic.csv", self.frame),
+            folder.write_csv("olsr_traffic_aggregate.csv", self.aggregate()),
+        ]
+
+
+_TRAFFIC = (
+    "hello_per_s",
+    "tc_per_s",
+    "packets_per_s",
+    "bytes_per_s",
+    "on_air_bytes_per_s",
+    "hello_bytes",
+    "shared_packets",
+)
+
+
+def _traffic_row(trace: str, backend: str, run: int, n: int, seconds: float, **c) -> dict:
+    per = n * seconds
+    return {
+        "trace": trace,
+        "backend": backend,
+        "run": run,
+        "hello_per_s": c["hello"] / per,
+        "tc_per_s": c["tc"] / per,
+        "packets_per_s": c["packets"] / per,
+        "bytes_per_s": c["bytes"] / per,
+        "on_air_bytes_per_s": (c["bytes"] + UDP_IP_HEADER * c["packets"]) / per,
+        "hello_bytes": c["hello_bytes"] / max(c["hello"], 1),
+        "shared_packets": c["shared"] / max(c["packets"], 1),
+    }
+
+
+def compare_control_traffic(
+    traces: Sequence[str] = DEFAULT_TRACES,
+    runs: Sequence[int] = (1, 2, 3),
+    *,
+    warmup_s: float = 20.0,
+    seed: int = 0,
+) -> ControlTrafficComparison:
+    """Count OLSR's control traffic from ``warmup_s`` to the end of each trace, with the
+    built-in model (TCs on, seeded ``[seed, run]``) and with ns-3 (run number ``run``).
+
+    The built-in model sends every message in a packet of its own, so its packets are its
+    messages and its ``hello_bytes`` include the 4-byte packet header; ns-3's ``hello_bytes``
+    are message bytes (its packets may be shared).
+
+    Raises
+    ------
+    ConfigError
+        An unknown trace, no trace or run, or a run number < 1.
+    BackendUnavailableError
+        Without the ns-3 package.
+    """
+    traces, runs = _checked(traces, runs)
+    rows = []
+    for name in traces:
+        trace = _trace(name)
+        n, seconds = trace.n_robots, trace.end - warmup_s
+        for run in runs:
+            rng = np.random.default_rng([seed, run])
+            model = OlsrProvider(n, olsr=OlsrParameters(hello_only=False), seed=rng)
+            model.reset(trace.at(trace.start), trace.start)
+            _follow(model, trace, warmup_s)
+            model.control_traffic()
+            _follow(model, trace, trace.end)
+            c = model.control_traffic()
+            rows.append(
+                _traffic_row(
+                    name,
+                    "olsr",
+                    run,
+                    n,
+                    seconds,
+                    hello=c.hello_sent.sum(),
+                    tc=(c.tc_sent + c.tc_forwarded).sum(),
+                    packets=c.messages.sum(),
+                    bytes=c.bytes.sum(),
+                    hello_bytes=c.hello_bytes.sum(),
+                    shared=0,
+                )
+            )
+            net = Ns3Provider(n, run=run)
+            net.reset(trace.at(trace.start), trace.start)
+            counter = Ns3OlsrTraffic(net)
+            _follow(net, trace, warmup_s)
+            counter.take()
+            _follow(net, trace, trace.end)
+            k = counter.take()
+            net.close()
+            rows.append(
+                _traffic_row(
+                    name,
+                    "ns3",
+                    run,
+                    n,
+                    seconds,
+                    hello=k.hello_sent.sum(),
+                    tc=(k.tc_sent + k.tc_forwarded).sum(),
+                    packets=k.packets.sum(),
+                    bytes=k.packet_bytes.sum(),
+                    hello_bytes=k.hello_bytes.sum(),
+                    shared=k.shared_packets.sum(),
+                )
+            )
+    return ControlTrafficComparison(pd.DataFrame(rows))
