@@ -267,9 +267,11 @@ def reproduce(
             decide_after_s=c.decide_after_s,
         )
         res5.write(folders["comms-ns3"])
-        compare_control_traffic(runs=[k + 1 for k in chosen]).write(folders["comms-ns3"])
+        res6 = compare_control_traffic(runs=[k + 1 for k in chosen])
+        res6.write(folders["comms-ns3"])
         click.echo(
-            f"Delivery, routed and ns-3: {len(res5.frame)} rows -> {folders['comms-ns3'].path}/"
+            f"Delivery and OLSR traffic, built-in and ns-3: {len(res5.frame)} + "
+            f"{len(res6.frame)} rows -> {folders['comms-ns3'].path}/"
         )
     if "comms" in folders:
         from swarmgames.experiments.comms import reproduce_comms

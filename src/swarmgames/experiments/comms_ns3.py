@@ -99,6 +99,8 @@ class DeliveryComparison:
                     capsize=3,
                     label=f"{trace}, {model}",
                 )
+        for ax in axs:
+            ax.set_xticks(sorted(agg["hops"].unique()))
         axs[0].set(xlabel="hops from the sender", ylabel="delivered by the decision")
         axs[1].set(xlabel="hops from the sender", ylabel="age on arrival (ms)")
         axs[0].legend(fontsize=8)
