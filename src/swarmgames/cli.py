@@ -194,7 +194,7 @@ def run(
 
 # ----------------------------------------------------------------------------- reproduce
 
-FIGURES = ("fig1", "fig2", "comms", "comms-cost", "all")
+FIGURES = ("fig1", "fig2", "comms", "comms-cost", "comms-ns3", "all")
 
 
 @cli.command()
@@ -243,6 +243,10 @@ def reproduce(
           delivery with 1 and 2 robots crashing at mid-mission, over --seeds
     comms-cost  payload bytes per robot and stage of local games, a centralised
           controller and swarm-wide flooding for N = 10 ... 10 000, over --seeds
+    comms-ns3  delivery ratio and age on arrival by hop count of the built-in routed
+          flooding and of UDP packets in ns-3, and OLSR's control traffic as the
+          built-in model counts it and as ns-3 sends it, on the recorded static_20
+          and waypoint_20 traces, ns-3 runs --seeds + 1 (needs ns-3)
     all   fig1 and fig2, into OUT/fig1 and OUT/fig2
 
     --set overrides apply to the default scenario the figures start from.
@@ -276,7 +280,7 @@ def reproduce(
         res2 = reproduce_fig2(base=ideal, seed=seed, progress=progress)
         res2.write(folders["fig2"])
         click.echo(f"Figure 2: {len(res2.summaries)} runs -> {folders['fig2'].path}/")
-    if "comms" in folders or "comms-cost" in folders:
+    if folders.keys() & {"comms", "comms-cost", "comms-ns3"}:
         try:
             chosen = [int(x) for x in seeds.split(",") if x.strip()]
         except ValueError:
@@ -291,6 +295,24 @@ def reproduce(
         res4 = comms_cost(seeds=chosen)
         res4.write(folders["comms-cost"])
         click.echo(f"Communication cost: {len(res4.frame)} rows -> {folders['comms-cost'].path}/")
+    if "comms-ns3" in folders:
+        from swarmgames.experiments.comms_ns3 import compare_control_traffic, compare_delivery
+
+        c = base.comms
+        res5 = compare_delivery(
+            runs=[k + 1 for k in chosen],
+            hops=base.network.hops,
+            jitter_s=c.jitter_s,
+            hop_delay_s=c.hop_delay_s,
+            decide_after_s=c.decide_after_s,
+        )
+        res5.write(folders["comms-ns3"])
+        res6 = compare_control_traffic(runs=[k + 1 for k in chosen])
+        res6.write(folders["comms-ns3"])
+        click.echo(
+            f"Delivery and OLSR traffic, built-in and ns-3: {len(res5.frame)} + "
+            f"{len(res6.frame)} rows -> {folders['comms-ns3'].path}/"
+        )
     if "comms" in folders:
         from swarmgames.experiments.comms import reproduce_comms
 

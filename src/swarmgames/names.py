@@ -25,4 +25,4 @@ GAME_SOLVERS = (*SOLVERS, "centralised")
 ENGINES = ("auto", "compiled", "blas", "sequential")
 
 #: Communication models (``comms.model``).
-COMMS_MODELS = ("ideal", "routed")
+COMMS_MODELS = ("ideal", "routed", "ns3")

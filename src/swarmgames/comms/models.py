@@ -25,8 +25,16 @@ Once per control period, at the stage time t, every robot composes its state mes
     S̄_j is the mean of the states it *knows* (its own and its fresh beliefs), and its N_j the
     row of its own table.
 
-Both return the inbox the stage pipeline builds the games from and :class:`CommsStats`, the
+``ns3``
+    The same belief tables, but the messages are UDP packets in ns-3
+    (:class:`~swarmgames.comms.ns3_comms.Ns3Comms`): delivery, delay and loss come from the
+    packet simulator.
+
+All return the inbox the stage pipeline builds the games from and :class:`CommsStats`, the
 per-robot measurements of the stage (information age, freshness, messages and bytes).
+:class:`BeliefComms` is what ``routed`` and ``ns3`` share: composing the messages, merging
+what arrived into the belief tables and building the inboxes at the decision; they differ
+only in :meth:`BeliefComms.deliver`.
 """
 
 from __future__ import annotations
@@ -47,7 +55,15 @@ from swarmgames.network.links import link_graph
 from swarmgames.network.propagation import PropagationModel
 from swarmgames.topology import TopologySnapshot
 
-__all__ = ["COMMS_MODELS", "CommsStats", "IdealComms", "RoutedComms"]
+__all__ = [
+    "COMMS_MODELS",
+    "BeliefComms",
+    "CommsStats",
+    "Composed",
+    "IdealComms",
+    "RoutedComms",
+    "table_links",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,6 +105,15 @@ def _table_rows(snapshot: TopologySnapshot, h: int):
     nbh = snapshot.neighbourhood_matrix(int(h))
     nbh.sort_indices()
     return np.asarray(nbh.indptr, dtype=np.int64), np.asarray(nbh.indices, dtype=np.int64)
+
+
+def table_links(snapshot: TopologySnapshot) -> sp.csr_array:
+    """``[u, v]`` = 1 where u's own table lists v as a 1-hop (symmetric) neighbour, (N, N)."""
+    n = snapshot.n_robots
+    one = np.asarray(snapshot.hops) == 1
+    owner, dest = np.asarray(snapshot.owner)[one], np.asarray(snapshot.dest)[one]
+    ones = np.ones(owner.size, dtype=np.int8)
+    return sp.csr_array((ones, (owner, dest)), shape=(n, n))
 
 
 @dataclass(eq=False)
@@ -142,8 +167,183 @@ class IdealComms:
         return None, stats
 
 
+@dataclass(frozen=True, eq=False)
+class Composed:
+    """The messages of one stage as their senders composed them (read-only arrays).
+
+    Parameters
+    ----------
+    indptr, members : ndarray of int64
+        Each robot's N_i(h) from its own table (CSR, sorted, the robot included).
+    reported : ndarray, shape (N, D)
+        The state each robot reports (its own, with the GPS error if any).
+    mean : ndarray, shape (N, D)
+        Each robot's S̄ over the states it knows (its own and its fresh beliefs).
+    sizes : ndarray of int64, shape (N,)
+        Wire bytes of each message.
+    nbh : ndarray of int32, shape (N, L)
+        Each robot's N_i(h), -1 padded.
+    """
+
+    indptr: np.ndarray
+    members: np.ndarray
+    reported: np.ndarray
+    mean: np.ndarray
+    sizes: np.ndarray
+    nbh: np.ndarray
+
+    def __post_init__(self) -> None:
+        freeze_fields(self)
+
+
 @dataclass(eq=False)
-class RoutedComms:
+class BeliefComms:
+    """Messages into belief tables (what ``routed`` and ``ns3`` share; module docstring).
+
+    Every stage :meth:`exchange` composes the messages (:meth:`compose`), lets the subclass
+    deliver them (:meth:`deliver`: the new belief entries and the message counters), merges
+    what arrived by the decision into the belief tables and builds the inboxes from them.
+
+    Parameters
+    ----------
+    n_robots, state_dim, hops : int
+    decide_after_s : float
+        The robots decide this long after the stage time, seconds; later messages wait for
+        the next decision.
+    max_age_s : float
+        Beliefs older than this are dropped, seconds.
+    dead_reckoning : bool
+        Advance reported positions by reported velocities (states with velocities only).
+    gps_error_m : float
+        Standard deviation of the error of the x and y a robot reports, metres.
+    """
+
+    n_robots: int
+    state_dim: int
+    hops: int
+    decide_after_s: float = field(default=0.1, kw_only=True)
+    max_age_s: float = field(default=3.0, kw_only=True)
+    dead_reckoning: bool = field(default=False, kw_only=True)
+    gps_error_m: float = field(default=0.0, kw_only=True)
+    table: BeliefTable = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every belief (the start of a run)."""
+        self.table = BeliefTable.empty(self.n_robots, self.state_dim)
+
+    def _believed(self, idx: np.ndarray, now: float) -> tuple[np.ndarray, np.ndarray]:
+        """The states of belief entries ``idx`` as used at ``now``, and their ages."""
+        tab = self.table
+        age = now - tab.stamp[idx]
+        state = tab.state[idx].copy()
+        if self.dead_reckoning and self.state_dim >= 5:
+            state[:, :2] += tab.state[idx, 3:5] * age[:, None]
+        return state, age
+
+    def compose(
+        self, t: float, snapshot: TopologySnapshot, states: np.ndarray, rng: np.random.Generator
+    ) -> Composed:
+        """Every robot's message at ``t``: its own state, its own table row, and S̄ over what
+        it knows now."""
+        n, dim = states.shape
+        indptr, members = _table_rows(snapshot, self.hops)
+        row = np.repeat(np.arange(n), np.diff(indptr))
+        other = members != row
+        known = self.table.lookup(row[other], members[other], t, self.max_age_s)
+        found = known >= 0
+        total = states.copy()
+        count = np.ones(n)
+        if found.any():
+            believed, _ = self._believed(known[found], t)
+            np.add.at(total, row[other][found], believed)
+            np.add.at(count, row[other][found], 1.0)
+        reported = states
+        if self.gps_error_m > 0:  # what each robot reports of its own position
+            reported = states.copy()
+            reported[:, :2] += rng.normal(0.0, self.gps_error_m, (n, 2))
+        return Composed(
+            indptr=indptr,
+            members=members,
+            reported=reported,
+            mean=total / count[:, None],
+            sizes=message_bytes(dim, np.diff(indptr)),
+            nbh=pad_rows(indptr, members, np.arange(n)),
+        )
+
+    def deliver(
+        self,
+        t: float,
+        snapshot: TopologySnapshot,
+        states: np.ndarray,
+        composed: Composed,
+        rng: np.random.Generator,
+        active: np.ndarray,
+    ) -> tuple[BeliefTable, dict[str, np.ndarray]]:
+        """The belief entries that the stage's delivery adds, and the per-robot counters
+        (``messages_sent``, ``messages_forwarded``, ``messages_received`` and the same in
+        ``bytes_``), for the subclass to define."""
+        raise NotImplementedError
+
+    def exchange(
+        self,
+        t: float,
+        snapshot: TopologySnapshot,
+        states,
+        rng: np.random.Generator,
+        active: np.ndarray | None = None,
+    ):
+        """Send, deliver and remember one stage's messages; the inbox at the decision.
+
+        ``active`` (default: all) marks the robots whose radio works: the others send,
+        forward and receive nothing."""
+        states = np.asarray(states, dtype=float)
+        n = states.shape[0]
+        active = np.ones(n, dtype=bool) if active is None else np.asarray(active, dtype=bool)
+        composed = self.compose(t, snapshot, states, rng)
+        new, counters = self.deliver(t, snapshot, states, composed, rng, active)
+        decide = t + self.decide_after_s
+        self.table = self.table.merge(new, decide, self.max_age_s)
+        # The inbox at the decision: own state first, then the members heard from.
+        indptr, members = composed.indptr, composed.members
+        row = np.repeat(np.arange(n), np.diff(indptr))
+        other = members != row
+        idx = self.table.lookup(row[other], members[other], decide, self.max_age_s)
+        use = idx >= 0
+        believed, age = self._believed(idx[use], decide)
+        own = np.arange(n)
+        ent_owner = np.concatenate([own, row[other][use]])
+        ent_member = np.concatenate([own, members[other][use]])
+        rows_padded = composed.nbh
+        width = max(rows_padded.shape[1], self.table.nbh.shape[1])
+        own_nbh = np.pad(
+            rows_padded, ((0, 0), (0, width - rows_padded.shape[1])), constant_values=-1
+        )
+        their_nbh = self.table.nbh[idx[use]]
+        their_nbh = np.pad(their_nbh, ((0, 0), (0, width - their_nbh.shape[1])), constant_values=-1)
+        order = np.lexsort((np.where(ent_member == ent_owner, -1, ent_member), ent_owner))
+        inbox = BeliefInbox(
+            indptr=np.concatenate([[0], np.cumsum(np.bincount(ent_owner, minlength=n))]),
+            member=ent_member[order].astype(np.int32),
+            state=np.concatenate([states, believed])[order],
+            mean=np.concatenate([composed.mean, self.table.mean[idx[use]]])[order],
+            nbh=np.concatenate([own_nbh, their_nbh])[order].astype(np.int32),
+            age=np.concatenate([np.zeros(n), age])[order],
+        )
+        expected = np.bincount(row[other], minlength=n)
+        used = np.bincount(row[other][use], minlength=n)
+        stats = CommsStats(
+            info_age_s=inbox.info_age(),
+            fresh_fraction=np.where(expected > 0, used / np.maximum(expected, 1), 1.0),
+            **counters,
+        )
+        return inbox, stats
+
+
+@dataclass(eq=False)
+class RoutedComms(BeliefComms):
     """State messages flooded over the links that exist now, with delay and loss, into belief
     tables (see the module docstring).
 
@@ -156,9 +356,6 @@ class RoutedComms:
         Delay of every hop besides the frame's airtime (channel access, queueing), seconds.
     rate_mbps : float
         PHY rate of the state messages, Mbit/s.
-    decide_after_s : float
-        The robots decide this long after the stage time, seconds; later messages wait for
-        the next decision.
     loss_rate : float
         Probability that one transmission is lost (i.i.d.; the good state of the
         Gilbert–Elliott channel).
@@ -167,38 +364,23 @@ class RoutedComms:
         Per-stage transition probabilities of a link's Gilbert–Elliott state.
     ge_loss_bad : float
         Loss probability of a link in the bad state.
-    gps_error_m : float
-        Standard deviation of the error of the x and y a robot reports, metres.
-    max_age_s : float
-        Beliefs older than this are dropped, seconds.
-    dead_reckoning : bool
-        Advance reported positions by reported velocities (states with velocities only).
+    decide_after_s, max_age_s, dead_reckoning, gps_error_m
+        Keyword only, see :class:`BeliefComms`.
     """
 
-    n_robots: int
-    state_dim: int
-    hops: int
     propagation: PropagationModel = field(default_factory=PropagationModel)
     hop_delay_s: float = 0.002
     rate_mbps: float = 6.0
-    decide_after_s: float = 0.1
     loss_rate: float = 0.0
-    max_age_s: float = 3.0
-    dead_reckoning: bool = False
     loss_model: str = "iid"
     ge_good_to_bad: float = 0.05
     ge_bad_to_good: float = 0.5
     ge_loss_bad: float = 1.0
-    gps_error_m: float = 0.0
-    table: BeliefTable = field(init=False)
     bad_links: np.ndarray = field(init=False)
-
-    def __post_init__(self) -> None:
-        self.reset()
 
     def reset(self) -> None:
         """Forget every belief and every link's channel state (the start of a run)."""
-        self.table = BeliefTable.empty(self.n_robots, self.state_dim)
+        super().reset()
         self.bad_links = np.zeros(0, dtype=np.int64)
 
     def state(self) -> dict[str, Any]:
@@ -232,15 +414,7 @@ class RoutedComms:
             phys = sp.csr_array(
                 (np.ones(g.indices.size, dtype=np.int8), g.indices, g.indptr), shape=(n, n)
             )
-        one = np.asarray(snapshot.hops) == 1
-        table = sp.csr_array(
-            (
-                np.ones(int(one.sum()), dtype=np.int8),
-                (np.asarray(snapshot.owner)[one], np.asarray(snapshot.dest)[one]),
-            ),
-            shape=(n, n),
-        )
-        return phys.multiply(table).tocsr()
+        return phys.multiply(table_links(snapshot)).tocsr()
 
     def _evolve_channel(self, adjacency: sp.csr_array, rng) -> None:
         """One stage of every usable link's Gilbert–Elliott state (new links start good)."""
@@ -267,50 +441,10 @@ class RoutedComms:
             ok &= rng.random(u.size) >= loss
         return ok
 
-    def _believed(self, idx: np.ndarray, now: float) -> tuple[np.ndarray, np.ndarray]:
-        """The states of belief entries ``idx`` as used at ``now``, and their ages."""
-        tab = self.table
-        age = now - tab.stamp[idx]
-        state = tab.state[idx].copy()
-        if self.dead_reckoning and self.state_dim >= 5:
-            state[:, :2] += tab.state[idx, 3:5] * age[:, None]
-        return state, age
-
-    def exchange(
-        self,
-        t: float,
-        snapshot: TopologySnapshot,
-        states,
-        rng: np.random.Generator,
-        active: np.ndarray | None = None,
-    ):
-        """Send, deliver and remember one stage's messages; the inbox at the decision.
-
-        ``active`` (default: all) marks the robots whose radio works: the others send,
-        forward and receive nothing."""
-        states = np.asarray(states, dtype=float)
-        n, dim = states.shape
-        active = np.ones(n, dtype=bool) if active is None else np.asarray(active, dtype=bool)
-        indptr, members = _table_rows(snapshot, self.hops)
-        row = np.repeat(np.arange(n), np.diff(indptr))
-        other = members != row
-        # 1. Compose: own state, own table row, S̄ over what the sender knows now.
-        known = self.table.lookup(row[other], members[other], t, self.max_age_s)
-        found = known >= 0
-        total = states.copy()
-        count = np.ones(n)
-        if found.any():
-            believed, _ = self._believed(known[found], t)
-            np.add.at(total, row[other][found], believed)
-            np.add.at(count, row[other][found], 1.0)
-        mean = total / count[:, None]
-        reported = states
-        if self.gps_error_m > 0:  # what each robot reports of its own position
-            reported = states.copy()
-            reported[:, :2] += rng.normal(0.0, self.gps_error_m, (n, 2))
-        sizes = message_bytes(dim, np.diff(indptr))
-        rows_padded = pad_rows(indptr, members, np.arange(n))
-        # 2. Deliver over the links that exist physically and in the forwarder's table.
+    def deliver(self, t, snapshot, states, composed, rng, active):
+        """Flood over the links that exist physically and in the forwarder's table; each hop
+        takes ``hop_delay_s`` plus the frame's airtime."""
+        n = states.shape[0]
         pos = states[:, :3]
         adjacency = self._links(snapshot, pos, rng)
         if not active.all():  # a dead radio neither sends, relays nor hears
@@ -318,6 +452,7 @@ class RoutedComms:
             adjacency = sp.csr_array(on @ adjacency @ on)
         if self.loss_model == "gilbert_elliott":
             self._evolve_channel(adjacency, rng)
+        sizes = composed.sizes
         delivery = flood(
             adjacency,
             self.hops,
@@ -333,44 +468,16 @@ class RoutedComms:
             s,
             np.full(s.size, float(t)),
             t + delivery.hops * hop_s[s],
-            reported[s],
-            mean[s],
-            rows_padded[s].astype(np.int32),
+            composed.reported[s],
+            composed.mean[s],
+            composed.nbh[s].astype(np.int32),
         )
-        decide = t + self.decide_after_s
-        self.table = self.table.merge(new, decide, self.max_age_s)
-        # 3. The inbox at the decision: own state first, then the members heard from.
-        idx = self.table.lookup(row[other], members[other], decide, self.max_age_s)
-        use = idx >= 0
-        believed, age = self._believed(idx[use], decide)
-        own = np.arange(n)
-        ent_owner = np.concatenate([own, row[other][use]])
-        ent_member = np.concatenate([own, members[other][use]])
-        width = max(rows_padded.shape[1], self.table.nbh.shape[1])
-        own_nbh = np.pad(
-            rows_padded, ((0, 0), (0, width - rows_padded.shape[1])), constant_values=-1
-        )
-        their_nbh = self.table.nbh[idx[use]]
-        their_nbh = np.pad(their_nbh, ((0, 0), (0, width - their_nbh.shape[1])), constant_values=-1)
-        order = np.lexsort((np.where(ent_member == ent_owner, -1, ent_member), ent_owner))
-        inbox = BeliefInbox(
-            indptr=np.concatenate([[0], np.cumsum(np.bincount(ent_owner, minlength=n))]),
-            member=ent_member[order].astype(np.int32),
-            state=np.concatenate([states, believed])[order],
-            mean=np.concatenate([mean, self.table.mean[idx[use]]])[order],
-            nbh=np.concatenate([own_nbh, their_nbh])[order].astype(np.int32),
-            age=np.concatenate([np.zeros(n), age])[order],
-        )
-        expected = np.bincount(row[other], minlength=n)
-        used = np.bincount(row[other][use], minlength=n)
-        stats = CommsStats(
-            info_age_s=inbox.info_age(),
-            fresh_fraction=np.where(expected > 0, used / np.maximum(expected, 1), 1.0),
-            messages_sent=delivery.sent,
-            messages_forwarded=delivery.forwarded,
-            messages_received=delivery.received,
-            bytes_sent=delivery.bytes_sent,
-            bytes_forwarded=delivery.bytes_forwarded,
-            bytes_received=delivery.bytes_received,
-        )
-        return inbox, stats
+        counters = {
+            "messages_sent": delivery.sent,
+            "messages_forwarded": delivery.forwarded,
+            "messages_received": delivery.received,
+            "bytes_sent": delivery.bytes_sent,
+            "bytes_forwarded": delivery.bytes_forwarded,
+            "bytes_received": delivery.bytes_received,
+        }
+        return new, counters

@@ -181,14 +181,26 @@ class CommsConfig(_Section):
         description=(
             "'routed' (default): messages flooded hop by hop over the links that exist now, "
             "with delay and loss, into belief tables; 'ideal': every member of N_i(h) gets "
-            "the exact state instantly and for free (the paper's assumption)."
+            "the exact state instantly and for free (the paper's assumption); 'ns3': the same "
+            "flooding as UDP packets in ns-3 (needs network.backend = 'ns3'), which decides "
+            "delivery, delay and loss."
+        ),
+    )
+    jitter_s: float = Field(
+        0.04,
+        ge=0,
+        le=1.0,
+        description=(
+            "'ns3' model: every transmission (a message or a relay) first waits a uniform "
+            "random time in [0, jitter_s], so that the robots do not all collide, seconds."
         ),
     )
     hop_delay_s: float = Field(
         0.002,
         ge=0,
         le=1.0,
-        description="Delay of each hop besides the frame's airtime (channel access), seconds.",
+        description="'routed' model: delay of each hop besides the frame's airtime (channel "
+        "access), seconds.",
     )
     rate_mbps: float = Field(
         6.0, gt=0, le=1000.0, description="PHY rate of the state messages, Mbit/s."
@@ -454,6 +466,34 @@ class SimConfig(_Section):
     )
 
 
+#: The ns-3 backend's one PHY rate (``OfdmRate6Mbps`` for data and control), Mbit/s.
+NS3_RATE_MBPS = 6.0
+
+
+def _check_ns3_comms(comms: CommsConfig, network: NetworkConfig) -> None:
+    """``comms.model = 'ns3'``: the packets need ns-3's nodes, and ns-3 decides the loss."""
+    if network.backend != "ns3":
+        raise ValueError(
+            "comms.model = 'ns3' sends the messages through ns-3: network.backend must be "
+            f"'ns3' (got {network.backend!r})"
+        )
+    if comms.loss_rate != 0:
+        raise ValueError(
+            "comms.loss_rate must be 0 with comms.model = 'ns3', where ns-3's channel decides "
+            f"the loss (got {comms.loss_rate})"
+        )
+    if comms.loss_model != "iid":
+        raise ValueError(
+            "comms.loss_model must be 'iid' with comms.model = 'ns3', where ns-3's channel "
+            f"decides the loss (got {comms.loss_model!r})"
+        )
+    if comms.rate_mbps != NS3_RATE_MBPS:
+        raise ValueError(
+            f"comms.rate_mbps must be {NS3_RATE_MBPS:g} with comms.model = 'ns3', the ns3 "
+            f"backend's PHY rate (got {comms.rate_mbps})"
+        )
+
+
 class ScenarioConfig(_Section):
     """A complete scenario: everything a run needs, and nothing it does not.
 
@@ -561,7 +601,9 @@ class ScenarioConfig(_Section):
                 "(every stage is kept in memory) "
                 f"(got {sim.duration_s} s / {sim.control_period_s} s = {stages:.3g})"
             )
-        if self.comms.model == "routed" and self.comms.decide_after_s >= sim.control_period_s:
+        if self.comms.model == "ns3":
+            _check_ns3_comms(self.comms, self.network)
+        if self.comms.model != "ideal" and self.comms.decide_after_s >= sim.control_period_s:
             raise ValueError(
                 "comms.decide_after_s must be < sim.control_period_s (a robot decides within "
                 f"its period) (got {self.comms.decide_after_s} >= {sim.control_period_s})"

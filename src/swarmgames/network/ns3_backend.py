@@ -287,6 +287,13 @@ class Ns3Provider:
         """Not available (see :meth:`state`)."""
         self.state()
 
+    @property
+    def nodes(self) -> Any:
+        """The ns-3 ``NodeContainer`` of the current scenario (robot i is node i), for the
+        applications that run on the robots (:mod:`swarmgames.network.ns3_packets`)."""
+        self._check_owner()
+        return self._nodes
+
     def close(self) -> None:
         """Destroy this provider's ns-3 scenario (a no-op if another provider took over)."""
         if self._n and _owner[0] == self._token:

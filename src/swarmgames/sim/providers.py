@@ -13,8 +13,11 @@ from typing import Any
 import numpy as np
 
 from swarmgames.comms import IdealComms, RoutedComms
+from swarmgames.comms.ns3_comms import Ns3Comms
 from swarmgames.config import NetworkConfig
+from swarmgames.errors import ConfigError
 from swarmgames.network.factory import make_provider
+from swarmgames.network.ns3_backend import Ns3Provider
 from swarmgames.network.parameters import OlsrParameters, RadioParameters
 from swarmgames.network.propagation import PropagationModel
 from swarmgames.network.provider import NeighbourhoodProvider
@@ -64,7 +67,9 @@ def provider_from_config(
     )
 
 
-def comms_from_config(config, state_dim: int, provider: Any = None) -> IdealComms | RoutedComms:
+def comms_from_config(
+    config, state_dim: int, provider: Any = None
+) -> IdealComms | RoutedComms | Ns3Comms:
     """The communication model of a :class:`~swarmgames.config.ScenarioConfig`.
 
     Parameters
@@ -75,11 +80,32 @@ def comms_from_config(config, state_dim: int, provider: Any = None) -> IdealComm
         D, the number of state columns of the mission.
     provider : NeighbourhoodProvider, optional
         The run's network; a routed model uses its radio channel (``provider.model``, with
-        its static shadowing draws) so that the links messages travel are the provider's.
+        its static shadowing draws) so that the links messages travel are the provider's;
+        the ns3 model sends its packets between the provider's ns-3 nodes.
+
+    Raises
+    ------
+    ConfigError
+        ``comms.model = 'ns3'`` with a provider that is not an ns-3 one (a user's provider
+        passed to :func:`swarmgames.run`).
     """
     c, net = config.comms, config.network
+    beliefs = {
+        "decide_after_s": c.decide_after_s,
+        "max_age_s": c.max_age_s,
+        "dead_reckoning": c.dead_reckoning,
+        "gps_error_m": config.faults.gps_error_m,
+    }
     if c.model == "ideal":
         return IdealComms(net.hops)
+    if c.model == "ns3":
+        if not isinstance(provider, Ns3Provider):
+            raise ConfigError(
+                "comms.model = 'ns3' sends its packets through the ns3 provider's nodes: the "
+                f"run's provider must be an Ns3Provider (got {type(provider).__name__})"
+            )
+        n, h = config.swarm.n_robots, net.hops
+        return Ns3Comms(n, int(state_dim), h, provider, c.jitter_s, **beliefs)
     channel = getattr(provider, "model", None)
     if not isinstance(channel, PropagationModel):
         channel = PropagationModel(RadioParameters(**net.radio.model_dump()))
@@ -90,13 +116,10 @@ def comms_from_config(config, state_dim: int, provider: Any = None) -> IdealComm
         channel,
         hop_delay_s=c.hop_delay_s,
         rate_mbps=c.rate_mbps,
-        decide_after_s=c.decide_after_s,
         loss_rate=c.loss_rate,
-        max_age_s=c.max_age_s,
-        dead_reckoning=c.dead_reckoning,
         loss_model=c.loss_model,
         ge_good_to_bad=c.ge_good_to_bad,
         ge_bad_to_good=c.ge_bad_to_good,
         ge_loss_bad=c.ge_loss_bad,
-        gps_error_m=config.faults.gps_error_m,
+        **beliefs,
     )
