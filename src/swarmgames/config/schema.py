@@ -458,11 +458,29 @@ class SimConfig(_Section):
             "none; the completed stages are kept in the tables either way)."
         ),
     )
+    tables: Literal["auto", "csv", "csv.gz", "parquet"] = Field(
+        "auto",
+        description=(
+            "Format of trajectory, metrics and swarm: 'csv'; 'csv.gz' (compressed); "
+            "'parquet' (a Parquet dataset, pip install \"swarmgames[parquet]\"); 'auto': csv "
+            "up to 500 000 trajectory rows (robots x stages), then parquet if pyarrow is "
+            "installed, else csv.gz."
+        ),
+    )
     animation: bool = Field(
         True, description="Write animation.gif of the swarm over the mission's background."
     )
     animation_frames: int = Field(
         60, ge=2, le=1000, description="Maximum number of frames of the animation."
+    )
+    animation_max_mb: float = Field(
+        8.0,
+        gt=0,
+        le=1000.0,
+        description=(
+            "Largest animation.gif, MB; a larger one is drawn again with half the frames "
+            "(down to 2)."
+        ),
     )
 
 

@@ -13,64 +13,109 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from swarmgames.sim.plots import draw_background
+from swarmgames.sim.plots import DENSE_ROBOTS, draw_background, link_lines
 
 __all__ = ["render_gif"]
 
 
-def render_gif(result, max_frames: int = 60, fps: int = 8) -> bytes:
-    """The animation as GIF bytes: robots, 1-hop links (grey) and robot 0's 2-hop
-    neighbourhood (orange) at up to ``max_frames`` evenly spaced stages; a robot without a
-    radio is grey, a crashed one a black cross."""
-    from PIL import Image
+def render_gif(result, max_frames: int = 60, fps: int = 8, max_bytes: int = 8_000_000) -> bytes:
+    """The animation as GIF bytes, at most ``max_frames`` evenly spaced stages and (about)
+    ``max_bytes``.
 
+    Every frame shows the mission's background, the 1-hop links (grey), robot 0 (red) and its
+    2-hop neighbourhood (orange), robots without a radio (grey) and crashed robots (black
+    crosses). Up to :data:`~swarmgames.sim.plots.DENSE_ROBOTS` robots each robot is a dot;
+    above, the swarm is drawn as its density (robots per cell of a 60 x 60 grid over the
+    frame, blue), with the links faint, so that a large swarm reads as where it is thick and
+    where it is thin, not as a blot. A GIF larger than ``max_bytes`` is drawn again with
+    half the frames (down to 2).
+
+    Raises
+    ------
+    ValueError
+        The run has no stage.
+    """
     tr = result.trajectory
     n = int(tr["robot"].max()) + 1
-    xy = tr[["x", "y"]].to_numpy().reshape(-1, n, 2)[:-1]  # positions at each stage
-    times = tr["t"].to_numpy()[::n][:-1]
-    s = len(xy)
+    xy = tr[["x", "y"]].to_numpy().reshape(-1, n, 2)
+    s = len(result.swarm)
     if s == 0:
         raise ValueError("cannot animate a run without stages")
-    idx = np.unique(np.linspace(0, s - 1, min(max_frames, s)).round().astype(int))
+    xy, times = xy[:s], tr["t"].to_numpy()[::n][:s]  # positions at each stage
+    frames = max(2, int(max_frames))
+    while True:
+        idx = np.unique(np.linspace(0, s - 1, min(frames, s)).round().astype(int))
+        data = _gif(result, xy, times, idx, fps)
+        if len(data) <= max_bytes or len(idx) <= 2:
+            return data
+        frames = len(idx) // 2
+
+
+def _gif(result, xy: np.ndarray, times: np.ndarray, idx: np.ndarray, fps: int) -> bytes:
+    from PIL import Image
+
+    s, n = xy.shape[:2]
     lo, hi = xy.reshape(-1, 2).min(axis=0), xy.reshape(-1, 2).max(axis=0)
     extent = getattr(result.mission, "extent", None)
     if extent is not None:  # keep the mission's area in view too
         box = np.asarray(extent(), dtype=float)
         lo, hi = np.minimum(lo, box[::2]), np.maximum(hi, box[1::2])
     pad = max(0.05 * float(np.max(hi - lo)), 1.0)  # metres around what the frames show
+    lo, hi = lo - pad, hi + pad
     alive, radio = _flags(result, "alive", s, n), _flags(result, "radio", s, n)
+    wide = n > DENSE_ROBOTS
     fig = Figure(figsize=(5, 5), dpi=80)
     canvas = FigureCanvasAgg(fig)
     ax = fig.add_subplot()
-    frames = []
+    images = []
     for k in idx:
         ax.clear()
         draw_background(ax, result.mission)
-        edges = result.links[k]
-        for a, b in edges:
-            ax.plot(*xy[k, [a, b]].T, color="0.5", lw=0.7)
+        edges = result.links[k] if k < len(result.links) else np.zeros((0, 2), dtype=int)
+        ax.add_collection(link_lines(xy[k], edges, wide))
         near = _two_hop(edges, n, 0)
         ok = alive[k] & radio[k]
-        ax.scatter(xy[k, ok, 0], xy[k, ok, 1], s=18, color="tab:blue", zorder=3)
+        if wide:
+            counts, ex, ey = np.histogram2d(
+                xy[k, ok, 0], xy[k, ok, 1], bins=60, range=[[lo[0], hi[0]], [lo[1], hi[1]]]
+            )
+            shown = np.ma.masked_equal(counts.T, 0)
+            ax.imshow(
+                shown,
+                origin="lower",
+                extent=(ex[0], ex[-1], ey[0], ey[-1]),
+                cmap="Blues",
+                vmin=0,
+                aspect="auto",
+                zorder=2,
+                interpolation="nearest",
+            )
+        else:
+            ax.scatter(xy[k, ok, 0], xy[k, ok, 1], s=18, color="tab:blue", zorder=3)
         deaf = alive[k] & ~radio[k]
-        ax.scatter(xy[k, deaf, 0], xy[k, deaf, 1], s=22, color="0.6", zorder=3)
+        ax.scatter(xy[k, deaf, 0], xy[k, deaf, 1], s=8 if wide else 22, color="0.6", zorder=3)
         dead = ~alive[k]
-        ax.scatter(xy[k, dead, 0], xy[k, dead, 1], s=40, marker="x", color="k", zorder=4)
-        ax.scatter(xy[k, near, 0], xy[k, near, 1], s=30, color="tab:orange", zorder=4)
+        ax.scatter(
+            xy[k, dead, 0], xy[k, dead, 1], s=12 if wide else 40, marker="x", color="k", zorder=4
+        )
+        ax.scatter(
+            xy[k, near, 0], xy[k, near, 1], s=8 if wide else 30, color="tab:orange", zorder=4
+        )
         ax.scatter(xy[k, 0, 0], xy[k, 0, 1], s=70, color="red", edgecolors="k", zorder=5)
-        ax.set_xlim(lo[0] - pad, hi[0] + pad)
-        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
         ax.set_aspect("equal")
-        ax.set_title(f"t = {times[k]:.0f} s  (robot 0 red, its N(2) orange)", fontsize=9)
+        what = f"{n} robots, density" if wide else "robot 0 red, its N(2) orange"
+        ax.set_title(f"t = {times[k]:.0f} s  ({what}; crashed x)", fontsize=9)
         canvas.draw()
         rgba = np.asarray(canvas.buffer_rgba())
-        frames.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=128))
+        images.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=128))
     buf = io.BytesIO()
-    frames[0].save(
+    images[0].save(
         buf,
         format="GIF",
         save_all=True,
-        append_images=frames[1:],
+        append_images=images[1:],
         duration=int(1000 / fps),
         loop=0,
     )

@@ -3,9 +3,9 @@
 While a run goes on, its folder holds
 
 * ``config.toml``, written before the first stage;
-* ``trajectory.csv``, ``metrics.csv`` and ``swarm.csv``, to which every completed stage is
-  appended in whole rows (:class:`~swarmgames.runfolder.AppendFile`), so that a killed run
-  leaves every stage it completed readable;
+* the tables ``trajectory``, ``metrics`` and ``swarm`` (CSV, gzip-compressed CSV or Parquet:
+  :mod:`swarmgames.sim.tables`), to which every completed stage is appended whole, so that a
+  killed run leaves every stage it completed readable;
 * ``manifest.json``, rewritten (atomically) after every stage: the run's status, the stages
   completed, the rows and bytes of each table, whether and from where it can be resumed;
 * ``checkpoint/stages.pickle``: every stage record, exact (the tables' values and the links of
@@ -38,10 +38,10 @@ import numpy as np
 
 from swarmgames.errors import RunFolderError
 from swarmgames.sim.loop import LoopState, StageLog, StageRecord
+from swarmgames.sim.tables import TABLE_NAMES, choose_format, open_table, remove_stale, table_file
 
 __all__ = [
     "MANIFEST",
-    "TABLES",
     "Checkpoint",
     "RunJournal",
     "read_checkpoint",
@@ -49,8 +49,6 @@ __all__ = [
     "read_records",
 ]
 
-#: The tables appended stage by stage.
-TABLES = ("trajectory.csv", "metrics.csv", "swarm.csv")
 MANIFEST = "manifest.json"
 CHECKPOINT_DIR = "checkpoint"
 RECORDS = f"{CHECKPOINT_DIR}/stages.pickle"
@@ -71,9 +69,12 @@ class Checkpoint:
         The run's ``config.toml`` text (a resumed run checks it is unchanged).
     loop : LoopState
     sizes : dict of int
-        Bytes of each table and of ``stages.pickle`` at the checkpoint.
+        Size of each table (bytes; Parquet: parts) and of ``stages.pickle`` (bytes) at the
+        checkpoint.
     rows : dict of int
         Rows of each table at the checkpoint.
+    tables : str
+        The tables' format.
     wall_s : float
         Wall time of the run until the checkpoint, s.
     """
@@ -84,12 +85,7 @@ class Checkpoint:
     sizes: dict[str, int]
     rows: dict[str, int]
     wall_s: float
-
-
-def _csv(frame, header: bool) -> bytes:
-    buf = io.StringIO()
-    frame.to_csv(buf, index=False, header=header, lineterminator="\n")
-    return buf.getvalue().encode("utf-8")
+    tables: str
 
 
 def read_manifest(path) -> dict[str, Any]:
@@ -139,8 +135,9 @@ class RunJournal:
         None when the run can be checkpointed, else why not.
     """
 
-    def __init__(self, folder, manifest, start, every, resumable, config_text) -> None:
+    def __init__(self, folder, manifest, start, every, resumable, config_text, fmt) -> None:
         self.folder = folder
+        self.fmt = fmt
         self.manifest = dict(manifest)
         self.start = np.asarray(start, dtype=float)
         self.every = int(every)
@@ -148,7 +145,6 @@ class RunJournal:
         self.config_text = config_text
         self.tables: dict[str, Any] = {}
         self.records = None
-        self.rows = dict.fromkeys(TABLES, 0)
         self.stages = 0
         self.checkpoint_stage: int | None = None
         self.previous = self.start  # the states before the next stage to append
@@ -164,6 +160,7 @@ class RunJournal:
         from swarmgames.config import to_toml
 
         text = to_toml(config)
+        fmt = choose_format(config.sim.tables, start.shape[0], n_stages)
         every = int(config.sim.checkpoint_every)
         why = _why_not_resumable(loop, every, custom)
         manifest = {
@@ -172,12 +169,14 @@ class RunJournal:
             "mission": mission,
             "seed": config.seed,
             "stages_planned": int(n_stages),
+            "tables_format": fmt,
             **custom,
         }
-        journal = cls(folder, manifest, start, every, why, text)
+        journal = cls(folder, manifest, start, every, why, text, fmt)
         folder.write_text("config.toml", text)
-        for name in TABLES:
-            journal.tables[name] = folder.append_file(name)
+        remove_stale(folder, fmt)
+        for name in TABLE_NAMES:
+            journal.tables[name] = open_table(folder, name, fmt)
         journal.records = folder.append_file(RECORDS)
         header = {"format": FORMAT, "start": journal.start, "period_s": loop.period_s}
         journal.records.append(pickle.dumps(header, protocol=pickle.HIGHEST_PROTOCOL))
@@ -197,10 +196,13 @@ class RunJournal:
             int(manifest["checkpoint_every"]),
             None,
             checkpoint.config,
+            checkpoint.tables,
         )
         sizes = checkpoint.sizes
-        for name in TABLES:
-            journal.tables[name] = folder.append_file(name, keep=sizes[name])
+        for name in TABLE_NAMES:
+            journal.tables[name] = open_table(
+                folder, name, checkpoint.tables, keep=sizes[name], rows=checkpoint.rows[name]
+            )
         journal.records = folder.append_file(RECORDS, keep=sizes[RECORDS])
         header, records = _read_records(folder.file(RECORDS), sizes[RECORDS])
         if len(records) != checkpoint.stage:
@@ -210,7 +212,6 @@ class RunJournal:
             )
         journal.start = np.asarray(header["start"], dtype=float)
         journal.previous = records[-1].after if records else journal.start
-        journal.rows = dict(checkpoint.rows)
         journal.stages = journal.checkpoint_stage = checkpoint.stage
         journal.wall_before = checkpoint.wall_s
         journal.t0 = time.perf_counter()
@@ -233,13 +234,12 @@ class RunJournal:
         )
         n = self.start.shape[0]
         frames = {
-            "trajectory.csv": _trajectory(one).iloc[:n],
-            "metrics.csv": _metrics(one),
-            "swarm.csv": _swarm(one),
+            "trajectory": _trajectory(one).iloc[:n],
+            "metrics": _metrics(one),
+            "swarm": _swarm(one),
         }
         for name, frame in frames.items():
-            self.tables[name].append(_csv(frame, header=self.rows[name] == 0))
-            self.rows[name] += len(frame)
+            self.tables[name].append(frame)
         self.records.append(pickle.dumps(record, protocol=pickle.HIGHEST_PROTOCOL))
         self.stages += 1
         self.previous = record.after
@@ -255,8 +255,9 @@ class RunJournal:
             config=self.config_text,
             loop=loop.state(),
             sizes=sizes,
-            rows=dict(self.rows),
+            rows={name: t.rows for name, t in self.tables.items()},
             wall_s=float(wall_s),
+            tables=self.fmt,
         )
         self.folder.write_bytes(STATE, pickle.dumps(point, protocol=pickle.HIGHEST_PROTOCOL))
         self.checkpoint_stage = self.stages
@@ -267,12 +268,10 @@ class RunJournal:
         animation and the summary; a complete run drops its checkpoint."""
         interrupted = result.interrupted
         n = self.start.shape[0]
-        tail = result.trajectory.iloc[-n:]  # the states after the last stage, action -1
-        self.tables["trajectory.csv"].append(_csv(tail, header=self.rows["trajectory.csv"] == 0))
-        self.rows["trajectory.csv"] += n
-        for name, frame in (("metrics.csv", result.metrics), ("swarm.csv", result.swarm)):
-            if self.rows[name] == 0:  # no stage completed: the header alone
-                self.tables[name].append(_csv(frame.iloc[:0], header=True))
+        self.tables["trajectory"].append(result.trajectory.iloc[-n:])  # after the last stage
+        for name, frame in (("metrics", result.metrics), ("swarm", result.swarm)):
+            if self.tables[name].rows == 0:  # no stage completed: the columns alone
+                self.tables[name].append(frame.iloc[:0])
         self._close()
         written = result.write_outputs(self.folder, animation, frames)
         if not interrupted:
@@ -319,9 +318,11 @@ class RunJournal:
                 if resumable or status == "complete"
                 else (self.why_not or "no checkpoint was written"),
                 "tables": {
-                    name: {"rows": self.rows[name], "bytes": self.tables[name].size}
-                    for name in TABLES
-                    if name in self.tables
+                    table_file(name, self.fmt): {
+                        "rows": t.rows,
+                        ("parts" if self.fmt == "parquet" else "bytes"): t.size,
+                    }
+                    for name, t in self.tables.items()
                 },
             },
         )

@@ -8,11 +8,40 @@ region or goal) comes from the mission's own columns and its optional ``draw(ax)
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
 from swarmgames.sim.result import NETWORK_COLUMNS
 
-__all__ = ["draw_background", "mission_columns", "plot_paths", "plot_timeseries"]
+__all__ = [
+    "DENSE_ROBOTS",
+    "draw_background",
+    "link_lines",
+    "mission_columns",
+    "plot_paths",
+    "plot_timeseries",
+]
+
+#: Above this many robots the figures draw thinner, fainter lines and smaller markers (and
+#: the animation the swarm's density), so that a swarm stays readable instead of a blot.
+DENSE_ROBOTS = 300
+
+
+def _cycle(n: int) -> list:
+    """Matplotlib's default colour cycle over ``n`` lines."""
+    from matplotlib import rcParams
+
+    colours = rcParams["axes.prop_cycle"].by_key()["color"]
+    return [colours[i % len(colours)] for i in range(n)]
+
+
+def link_lines(xy: np.ndarray, edges: np.ndarray, wide: bool = False) -> LineCollection:
+    """The 1-hop links ``edges`` (E, 2) between the positions ``xy`` (N, 2) as one
+    collection."""
+    edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
+    return LineCollection(
+        xy[edges], colors="0.5", linewidths=0.3 if wide else 0.7, alpha=0.35 if wide else 0.8
+    )
 
 
 def mission_columns(result) -> list[str]:
@@ -123,14 +152,24 @@ def plot_paths(result) -> Figure:
     tr = result.trajectory
     n = int(tr["robot"].max()) + 1 if len(tr) else 0
     xy = tr[["x", "y"]].to_numpy().reshape(-1, n, 2) if n else np.zeros((0, 0, 2))
-    for i in range(n):
-        ax.plot(xy[:, i, 0], xy[:, i, 1], lw=0.8, alpha=0.8)
     if len(xy):
-        ax.scatter(xy[0, :, 0], xy[0, :, 1], marker="x", color="k", s=15, label="start")
-        ax.scatter(xy[-1, :, 0], xy[-1, :, 1], marker="o", color="tab:red", s=25, label="end")
+        # One collection for all paths and one for the links: drawing stays fast at 10 000.
+        wide = n > DENSE_ROBOTS
+        paths = LineCollection(
+            np.swapaxes(xy, 0, 1),
+            linewidths=0.3 if wide else 0.8,
+            alpha=0.3 if wide else 0.8,
+            colors=None if wide else _cycle(n),
+        )
+        ax.add_collection(paths)
+        size = 2 if wide else 15
+        ax.scatter(xy[0, :, 0], xy[0, :, 1], marker="x", color="k", s=size, label="start")
+        ax.scatter(
+            xy[-1, :, 0], xy[-1, :, 1], marker="o", color="tab:red", s=size + 10, label="end"
+        )
         if result.links:
-            for a, b in result.links[-1]:
-                ax.plot(*xy[-1, [a, b]].T, color="tab:gray", lw=0.6, alpha=0.7)
+            ax.add_collection(link_lines(xy[-1], result.links[-1], wide))
+        ax.autoscale_view()
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")

@@ -186,6 +186,52 @@ class RunResult:
             mission=mission,
         )
 
+    @classmethod
+    def load(cls, folder, mission=None) -> RunResult:
+        """A run folder read back: its configuration, its tables (in whichever format
+        ``sim.tables`` wrote them, complete or not) and its summary (empty if the run wrote
+        none). The 1-hop links of each stage are not kept in a run folder: ``links`` is empty,
+        so ``plot_paths`` draws no links.
+
+        Parameters
+        ----------
+        folder : RunFolder, str or Path
+        mission : Mission, optional
+            For the plots: the run's mission object if it was not a registered one (default:
+            built from the configuration).
+
+        Raises
+        ------
+        ConfigError, InputDataError
+            An unreadable ``config.toml``, table or ``summary.json`` (one line naming it).
+        """
+        import json
+        from pathlib import Path
+
+        from swarmgames.config import load_config
+        from swarmgames.errors import InputDataError
+        from swarmgames.missions import get_mission
+        from swarmgames.sim.tables import read_table
+
+        path = Path(getattr(folder, "path", folder))
+        config = load_config(path / "config.toml")
+        summary: dict = {}
+        if (path / "summary.json").is_file():
+            try:
+                summary = json.loads((path / "summary.json").read_text(encoding="utf-8"))
+            except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+                raise InputDataError(f"cannot read {path / 'summary.json'}: {exc}") from None
+        return cls(
+            config=config,
+            trajectory=read_table(path, "trajectory"),
+            metrics=read_table(path, "metrics"),
+            swarm=read_table(path, "swarm"),
+            links=[],
+            summary=summary,
+            mission=mission if mission is not None else get_mission(config.scenario).build(config),
+            folder=folder,
+        )
+
     def to_frame(self, table: Literal["swarm", "metrics", "trajectory"] = "swarm") -> pd.DataFrame:
         """One of the run's tables as a DataFrame (default: the per-stage swarm table)."""
         tables = {"swarm": self.swarm, "metrics": self.metrics, "trajectory": self.trajectory}
@@ -231,7 +277,9 @@ class RunResult:
             fig = self.plot_paths()
             written.append(folder.save_figure("paths.png", fig))
             if animation:
-                written.append(folder.write_bytes("animation.gif", render_gif(self, frames)))
+                cap = int(1e6 * self.config.sim.animation_max_mb)
+                gif = render_gif(self, frames, max_bytes=cap)
+                written.append(folder.write_bytes("animation.gif", gif))
         written.append(folder.write_json("summary.json", self.summary))
         self.folder = folder
         self.files = written
