@@ -41,6 +41,7 @@ MAY_IMPORT = {
 }
 ABOVE_SIM = ("swarmgames.sim", *MAY_IMPORT["swarmgames.sim"])
 MAY_IMPORT["swarmgames.experiments"] = ABOVE_SIM
+MAY_IMPORT["swarmgames.env"] = ABOVE_SIM
 MAY_IMPORT["swarmgames.bench"] = (*ABOVE_SIM, "swarmgames.experiments")
 
 

@@ -22,7 +22,7 @@ from swarmgames.errors import RunFolderError
 from swarmgames.runfolder import RunFolder
 from swarmgames.sim import NotResumableError, build_mission, resume, run
 from swarmgames.sim.journal import read_manifest
-from swarmgames.sim.runner import _assemble
+from swarmgames.sim.runner import build_loop
 
 from .conftest import DiskOracle
 
@@ -212,13 +212,13 @@ def test_resume_refuses_what_it_cannot_continue(tmp_path, reference):
 def test_loop_state_restored_into_a_fresh_loop_gives_the_same_records():
     cfg = _config()
     mission = build_mission(cfg)
-    states, loop, _ = _assemble(cfg, mission, None)
+    states, loop, _ = build_loop(cfg, mission, None)
     loop.start(states)
     for _ in range(5):
         loop.step()
     saved = loop.state()
     ahead = [loop.step() for _ in range(6)]
-    _, fresh, _ = _assemble(cfg, mission, None)
+    _, fresh, _ = build_loop(cfg, mission, None)
     fresh.restore(saved)
     again = [fresh.step() for _ in range(6)]
     for a, b in zip(ahead, again, strict=True):

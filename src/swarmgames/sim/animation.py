@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 
 from swarmgames.sim.plots import DENSE_ROBOTS, draw_background, link_lines
 
-__all__ = ["render_gif"]
+__all__ = ["draw_frame", "render_gif"]
 
 
 def render_gif(result, max_frames: int = 60, fps: int = 8, max_bytes: int = 8_000_000) -> bytes:
@@ -51,62 +51,84 @@ def render_gif(result, max_frames: int = 60, fps: int = 8, max_bytes: int = 8_00
         frames = len(idx) // 2
 
 
-def _gif(result, xy: np.ndarray, times: np.ndarray, idx: np.ndarray, fps: int) -> bytes:
-    from PIL import Image
-
-    s, n = xy.shape[:2]
-    lo, hi = xy.reshape(-1, 2).min(axis=0), xy.reshape(-1, 2).max(axis=0)
-    extent = getattr(result.mission, "extent", None)
+def _bounds(mission, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """What the frames show: every position of ``xy`` (..., 2) and the mission's area, with a
+    margin."""
+    pts = np.asarray(xy, dtype=float).reshape(-1, 2)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    extent = getattr(mission, "extent", None)
     if extent is not None:  # keep the mission's area in view too
         box = np.asarray(extent(), dtype=float)
         lo, hi = np.minimum(lo, box[::2]), np.maximum(hi, box[1::2])
     pad = max(0.05 * float(np.max(hi - lo)), 1.0)  # metres around what the frames show
-    lo, hi = lo - pad, hi + pad
-    alive, radio = _flags(result, "alive", s, n), _flags(result, "radio", s, n)
+    return lo - pad, hi + pad
+
+
+def _draw(ax, mission, xy, edges, alive, radio, t: float, lo, hi) -> None:
+    """One frame on ``ax`` (see :func:`render_gif`)."""
+    n = xy.shape[0]
     wide = n > DENSE_ROBOTS
+    ax.clear()
+    draw_background(ax, mission)
+    ax.add_collection(link_lines(xy, edges, wide))
+    near = _two_hop(edges, n, 0)
+    ok = alive & radio
+    if wide:
+        counts, ex, ey = np.histogram2d(
+            xy[ok, 0], xy[ok, 1], bins=60, range=[[lo[0], hi[0]], [lo[1], hi[1]]]
+        )
+        ax.imshow(
+            np.ma.masked_equal(counts.T, 0),
+            origin="lower",
+            extent=(ex[0], ex[-1], ey[0], ey[-1]),
+            cmap="Blues",
+            vmin=0,
+            aspect="auto",
+            zorder=2,
+            interpolation="nearest",
+        )
+    else:
+        ax.scatter(xy[ok, 0], xy[ok, 1], s=18, color="tab:blue", zorder=3)
+    deaf = alive & ~radio
+    ax.scatter(xy[deaf, 0], xy[deaf, 1], s=8 if wide else 22, color="0.6", zorder=3)
+    dead = ~alive
+    ax.scatter(xy[dead, 0], xy[dead, 1], s=12 if wide else 40, marker="x", color="k", zorder=4)
+    ax.scatter(xy[near, 0], xy[near, 1], s=8 if wide else 30, color="tab:orange", zorder=4)
+    ax.scatter(xy[0, 0], xy[0, 1], s=70, color="red", edgecolors="k", zorder=5)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_aspect("equal")
+    what = f"{n} robots, density" if wide else "robot 0 red, its N(2) orange"
+    ax.set_title(f"t = {t:.0f} s  ({what}; crashed x)", fontsize=9)
+
+
+def _canvas():
     fig = Figure(figsize=(5, 5), dpi=80)
-    canvas = FigureCanvasAgg(fig)
-    ax = fig.add_subplot()
+    return FigureCanvasAgg(fig), fig.add_subplot()
+
+
+def draw_frame(mission, xy, edges, alive, radio, t: float) -> np.ndarray:
+    """One frame of the animation as an RGB array (H, W, 3) of uint8: positions ``xy``
+    (N, 2), 1-hop ``edges`` (E, 2), the ``alive`` and ``radio`` flags (N,), at time ``t``."""
+    xy = np.asarray(xy, dtype=float)
+    canvas, ax = _canvas()
+    lo, hi = _bounds(mission, xy)
+    _draw(ax, mission, xy, np.asarray(edges), np.asarray(alive), np.asarray(radio), t, lo, hi)
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+
+
+def _gif(result, xy: np.ndarray, times: np.ndarray, idx: np.ndarray, fps: int) -> bytes:
+    from PIL import Image
+
+    s, n = xy.shape[:2]
+    lo, hi = _bounds(result.mission, xy)
+    alive, radio = _flags(result, "alive", s, n), _flags(result, "radio", s, n)
+    canvas, ax = _canvas()
     images = []
     for k in idx:
-        ax.clear()
-        draw_background(ax, result.mission)
         edges = result.links[k] if k < len(result.links) else np.zeros((0, 2), dtype=int)
-        ax.add_collection(link_lines(xy[k], edges, wide))
-        near = _two_hop(edges, n, 0)
-        ok = alive[k] & radio[k]
-        if wide:
-            counts, ex, ey = np.histogram2d(
-                xy[k, ok, 0], xy[k, ok, 1], bins=60, range=[[lo[0], hi[0]], [lo[1], hi[1]]]
-            )
-            shown = np.ma.masked_equal(counts.T, 0)
-            ax.imshow(
-                shown,
-                origin="lower",
-                extent=(ex[0], ex[-1], ey[0], ey[-1]),
-                cmap="Blues",
-                vmin=0,
-                aspect="auto",
-                zorder=2,
-                interpolation="nearest",
-            )
-        else:
-            ax.scatter(xy[k, ok, 0], xy[k, ok, 1], s=18, color="tab:blue", zorder=3)
-        deaf = alive[k] & ~radio[k]
-        ax.scatter(xy[k, deaf, 0], xy[k, deaf, 1], s=8 if wide else 22, color="0.6", zorder=3)
-        dead = ~alive[k]
-        ax.scatter(
-            xy[k, dead, 0], xy[k, dead, 1], s=12 if wide else 40, marker="x", color="k", zorder=4
-        )
-        ax.scatter(
-            xy[k, near, 0], xy[k, near, 1], s=8 if wide else 30, color="tab:orange", zorder=4
-        )
-        ax.scatter(xy[k, 0, 0], xy[k, 0, 1], s=70, color="red", edgecolors="k", zorder=5)
-        ax.set_xlim(lo[0], hi[0])
-        ax.set_ylim(lo[1], hi[1])
-        ax.set_aspect("equal")
-        what = f"{n} robots, density" if wide else "robot 0 red, its N(2) orange"
-        ax.set_title(f"t = {times[k]:.0f} s  ({what}; crashed x)", fontsize=9)
+        _draw(ax, result.mission, xy[k], edges, alive[k], radio[k], times[k], lo, hi)
         canvas.draw()
         rgba = np.asarray(canvas.buffer_rgba())
         images.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=128))

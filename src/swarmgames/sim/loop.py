@@ -42,6 +42,7 @@ __all__ = [
     "StageLog",
     "StageLoop",
     "StageRecord",
+    "StageView",
     "drive",
     "oscillation",
     "run_stages",
@@ -237,6 +238,38 @@ def _nanmean(values: np.ndarray) -> float:
 
 
 @dataclass(frozen=True, eq=False)
+class StageView:
+    """A stage up to the decision (:meth:`StageLoop.observe`).
+
+    Attributes
+    ----------
+    t : float
+        Stage time, s.
+    states : ndarray, shape (N, D)
+        The true states.
+    snapshot : TopologySnapshot
+        The routing tables.
+    inbox : Inbox or None
+        What every robot has heard (None: exact, instant delivery).
+    heard : CommsStats
+        The exchange's measures.
+    alive, radio : ndarray of bool, shape (N,)
+        Robots not crashed; robots with a working radio.
+    started : float
+        ``time.perf_counter()`` when the stage began.
+    """
+
+    t: float
+    states: np.ndarray
+    snapshot: TopologySnapshot
+    inbox: Any
+    heard: Any
+    alive: np.ndarray
+    radio: np.ndarray
+    started: float
+
+
+@dataclass(frozen=True, eq=False)
 class LoopState:
     """Everything the stage loop needs to continue exactly where it was (immutable).
 
@@ -331,6 +364,7 @@ class StageLoop:
         self._prev: np.ndarray | None = None
         self._snap: TopologySnapshot | None = None
         self._metric_names: tuple[str, ...] = ()
+        self._view: StageView | None = None
 
     def start(self, states: np.ndarray) -> None:
         """Place the robots at ``states`` at time 0, run the network through the warm-up
@@ -350,18 +384,38 @@ class StageLoop:
         if self._control is not None:
             self._control()  # the warm-up's traffic is not part of any stage
         self.stage, self.states, self._prev, self._metric_names = 0, pos, None, ()
+        self._view = None
 
     def step(self) -> StageRecord:
-        """Run the next stage and return its record."""
+        """Run the next stage with the controller's decision and return its record."""
+        view = self.observe()
+        dec = self.controller.decide(view.snapshot, view.states, self.rng, inbox=view.inbox)
+        return self.act(dec)
+
+    def observe(self) -> StageView:
+        """The next stage up to the decision: the messages of the stage exchanged, what every
+        robot knows (its inbox) returned. Idempotent until :meth:`act` (the messages are
+        exchanged once)."""
         if self.states is None:
-            raise RuntimeError("call start(states) before step()")
-        t_stage = time.perf_counter()
-        pos, prev, snap, f = self.states, self._prev, self._snap, self.faults
+            raise RuntimeError("call start(states) before observe()")
+        if self._view is None:
+            pos, f = self.states, self.faults
+            t = self.warmup_s + self.stage * self.period_s
+            alive, radio = f.alive(t), f.radio(t, pos)
+            t0 = time.perf_counter()
+            inbox, heard = self.comms.exchange(t, self._snap, pos, self.comms_rng, active=radio)
+            self._view = StageView(t, pos, self._snap, inbox, heard, alive, radio, t0)
+        return self._view
+
+    def act(self, dec) -> StageRecord:
+        """Finish the observed stage with the decision ``dec`` (a ``StageSolution``: actions,
+        next states and their measures), measure it, advance the network and return its
+        record."""
+        view = self.observe()
+        t_stage, t, pos, snap = view.started, view.t, view.states, view.snapshot
+        alive, radio, heard = view.alive, view.radio, view.heard
+        prev, f = self._prev, self.faults
         n = pos.shape[0]
-        t = self.warmup_s + self.stage * self.period_s
-        alive, radio = f.alive(t), f.radio(t, pos)
-        inbox, heard = self.comms.exchange(t, snap, pos, self.comms_rng, active=radio)
-        dec = self.controller.decide(snap, pos, self.rng, inbox=inbox)
         mean_h, max_h, n_comp, edges = swarm_graph_stats(snap)
         if alive.any():
             measured = self.mission.swarm_metrics(pos[alive], None if prev is None else prev[alive])
@@ -412,6 +466,7 @@ class StageLoop:
         # The loop moves on only once the stage is complete (Ctrl-C keeps whole stages).
         self._metric_names = tuple(measured)
         self.stage, self._prev, self.states, self._snap = self.stage + 1, pos, new_pos, snap_next
+        self._view = None
         return record
 
     def state(self) -> LoopState:
@@ -426,6 +481,8 @@ class StageLoop:
 
         if self.states is None:
             raise RuntimeError("call start(states) before state()")
+        if self._view is not None:
+            raise RuntimeError("state() is taken between stages, not after observe()")
         take = getattr(self.provider, "state", None)
         if take is None:
             raise SnapshotUnsupported(
@@ -464,6 +521,7 @@ class StageLoop:
         self._prev = None if state.previous is None else np.array(state.previous, dtype=float)
         self._snap = state.snapshot
         self._metric_names = tuple(state.metric_names)
+        self._view = None
 
 
 def run_stages(

@@ -63,7 +63,7 @@ def _check_mission(config: ScenarioConfig, mission: Mission | None) -> Mission:
     return mission
 
 
-def _assemble(config: ScenarioConfig, mission: Mission, provider: Any):
+def build_loop(config: ScenarioConfig, mission: Mission, provider: Any):
     """The start states, the stage loop and the number of stages of a run of ``config``:
     every random draw from the children of ``SeedSequence(config.seed)``, so that a resumed
     run builds the same objects as the run it continues."""
@@ -160,7 +160,7 @@ def run(
         if out is not None and not isinstance(out, RunFolder):
             out = RunFolder(Path(out), force=force)
         t0 = time.perf_counter()
-        states, loop, n_stages = _assemble(config, mission, provider)
+        states, loop, n_stages = build_loop(config, mission, provider)
         loop.start(states)
         journal = None
         if out is not None:
@@ -267,7 +267,7 @@ def resume(
         checkpoint = read_checkpoint(out, manifest)
         if checkpoint is None:
             _rebuild(out, config, mission, manifest)
-        _, loop, n_stages = _assemble(config, mission, provider)
+        _, loop, n_stages = build_loop(config, mission, provider)
         loop.restore(checkpoint.loop)
         journal, records = RunJournal.reopen(out, checkpoint, manifest)
         t0 = time.perf_counter()
