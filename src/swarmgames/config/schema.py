@@ -433,11 +433,31 @@ class SimConfig(_Section):
             "simulates every message of it before the first stage), seconds."
         ),
     )
-    controller: Literal["game", "lloyd"] = Field(
+    controller: Literal["game", "lloyd", "mpc"] = Field(
         "game",
         description=(
             "'game': every robot solves its local graphical game; 'lloyd': Lloyd/Voronoi "
-            "coverage baseline (centralised positions, no game)."
+            "coverage baseline (centralised positions, no game); 'mpc': the game's candidate "
+            "decisions played mpc_horizon stages ahead on the run's own models, the best "
+            "executed (a centralised reference, docs/mpc.md)."
+        ),
+    )
+    mpc_horizon: int = Field(
+        3,
+        ge=1,
+        le=20,
+        description=(
+            "Stages the 'mpc' controller looks ahead (1: the myopic game controller); each "
+            "stage then costs about (candidates x horizon) stages."
+        ),
+    )
+    mpc_samples: int = Field(
+        2,
+        ge=0,
+        le=64,
+        description=(
+            "Candidate profiles the 'mpc' controller draws from the robots' mean-field "
+            "marginals, besides the myopic decision and holding positions."
         ),
     )
     global_regret: bool = Field(
@@ -621,6 +641,12 @@ class ScenarioConfig(_Section):
             )
         if self.comms.model == "ns3":
             _check_ns3_comms(self.comms, self.network)
+        if sim.controller == "mpc" and sim.mpc_horizon > 1 and self.network.backend == "ns3":
+            raise ValueError(
+                "sim.controller = 'mpc' predicts the network by snapshot and restore, which "
+                "ns-3 cannot do (it has no simulator snapshot); use network.backend = 'olsr' "
+                "(the built-in model of ns-3's OLSR) or sim.mpc_horizon = 1"
+            )
         if self.comms.model != "ideal" and self.comms.decide_after_s >= sim.control_period_s:
             raise ValueError(
                 "comms.decide_after_s must be < sim.control_period_s (a robot decides within "

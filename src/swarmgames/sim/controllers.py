@@ -81,9 +81,10 @@ class GameController(_Controller):
         self.centralised = config.game.solver == "centralised"
         self.global_regret = bool(config.sim.global_regret)
 
-    def decide(self, snapshot, states, rng, inbox=None) -> StageSolution:
+    def decide(self, snapshot, states, rng, inbox=None, keep_games=False) -> StageSolution:
         """Every robot's action at ``states`` with the tables of ``snapshot``, each local game
-        built from ``inbox`` (what the robots know; default: exact, instant delivery)."""
+        built from ``inbox`` (what the robots know; default: exact, instant delivery);
+        ``keep_games``: the solved games and marginals are kept in the solution."""
         m = self.mission
         try:
             return solve_stage(
@@ -99,6 +100,7 @@ class GameController(_Controller):
                 buckets=self.buckets,
                 global_regret=self.global_regret,
                 inbox=inbox,
+                keep_games=keep_games,
             )
         except ValueError as exc:
             if self.solver_name != "exact":
@@ -153,8 +155,13 @@ class LloydController(_Controller):
         )
 
 
-def make_controller(config, mission) -> GameController | LloydController:
-    """The controller ``sim.controller`` names."""
+def make_controller(config, mission):
+    """The controller ``sim.controller`` names: the game controller, Lloyd's baseline or the
+    receding-horizon controller (:mod:`swarmgames.sim.mpc`)."""
     if config.sim.controller == "lloyd":
         return LloydController(config, mission)
+    if config.sim.controller == "mpc":
+        from swarmgames.sim.mpc import MpcController
+
+        return MpcController(config, mission)
     return GameController(config, mission)

@@ -387,22 +387,36 @@ class StageLoop:
         self._view = None
 
     def step(self) -> StageRecord:
-        """Run the next stage with the controller's decision and return its record."""
-        view = self.observe()
+        """Run the next stage with the controller's decision and return its record.
+
+        A controller with a ``plan(loop)`` method (the MPC controller) is called first, before
+        the stage's messages are exchanged; it may predict on this loop and must restore it.
+        """
+        started = time.perf_counter()
+        plan = getattr(self.controller, "plan", None)
+        if plan is not None and self._view is None:
+            plan(self)
+        view = self.observe(started)
         dec = self.controller.decide(view.snapshot, view.states, self.rng, inbox=view.inbox)
         return self.act(dec)
 
-    def observe(self) -> StageView:
+    @property
+    def previous(self) -> np.ndarray | None:
+        """The states one stage before (None before the first stage)."""
+        return self._prev
+
+    def observe(self, started: float | None = None) -> StageView:
         """The next stage up to the decision: the messages of the stage exchanged, what every
         robot knows (its inbox) returned. Idempotent until :meth:`act` (the messages are
-        exchanged once)."""
+        exchanged once). ``started``: when the stage's work began (``time.perf_counter()``;
+        default: now), for its wall time."""
         if self.states is None:
             raise RuntimeError("call start(states) before observe()")
         if self._view is None:
             pos, f = self.states, self.faults
             t = self.warmup_s + self.stage * self.period_s
             alive, radio = f.alive(t), f.radio(t, pos)
-            t0 = time.perf_counter()
+            t0 = time.perf_counter() if started is None else started
             inbox, heard = self.comms.exchange(t, self._snap, pos, self.comms_rng, active=radio)
             self._view = StageView(t, pos, self._snap, inbox, heard, alive, radio, t0)
         return self._view
