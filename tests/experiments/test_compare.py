@@ -176,6 +176,51 @@ def test_read_recording_needs_all_files(tmp_path):
         read_recording(tmp_path)
 
 
+def _two_run_folder(folder, suffix, compression):
+    positions = pd.DataFrame({"t": [0.0, 0.0], "node": [0, 1], "x": [0.0, 100.0], "y": 0.0,
+                              "z": 0.0})  # fmt: skip
+    hops = pd.DataFrame({"run": [3, 3, 7], "t": [1.0, 1.0, 1.0], "node": [0, 1, 0],
+                         "dest": [1, 0, 1], "hops": [1, 1, 2]})  # fmt: skip
+    folder.mkdir()
+    positions.to_csv(folder / f"positions{suffix}", index=False, compression=compression)
+    hops.to_csv(folder / f"hops{suffix}", index=False, compression=compression)
+    (folder / "meta.json").write_text(json.dumps({"sample": 1.0, "runs": [3, 7]}))
+    return positions, hops
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".csv.xz", ".csv.gz"])
+def test_read_recording_reads_plain_xz_and_gzip_files(tmp_path, suffix):
+    positions, hops = _two_run_folder(tmp_path / "rec", suffix, "infer")
+    rec = read_recording(tmp_path / "rec")
+    pd.testing.assert_frame_equal(rec.positions, positions)
+    pd.testing.assert_frame_equal(rec.hops, hops)
+
+
+def test_a_recording_of_several_runs_serves_one_run_at_a_time(tmp_path):
+    _two_run_folder(tmp_path / "rec", ".csv.xz", "xz")
+    rec = read_recording(tmp_path / "rec")
+    assert rec.runs == (3, 7)
+    assert list(rec.run_hops(7).columns) == ["t", "node", "dest", "hops"]
+    net = rec.provider("ns3 run 3", run=3)
+    net.reset(np.zeros((2, 3)))
+    assert net.advance(1.0, None).hop_matrix().tolist() == [[0, 1], [1, 0]]
+    net = rec.provider(run=7)
+    net.reset(np.zeros((2, 3)))
+    assert net.advance(1.0, None).hop_matrix().tolist() == [[0, 2], [-1, 0]]  # -1: no route
+    with pytest.raises(ValueError, match=r"run must be one of \[3, 7\] \(got None\)"):
+        rec.provider()
+    with pytest.raises(ValueError, match=r"run must be one of \[3, 7\] \(got 4\)"):
+        rec.run_hops(4)
+
+
+def test_a_single_run_recording_names_its_run_from_meta():
+    rec = read_recording(os.path.join(DATA, "waypoint_20"))
+    assert rec.runs == (1,)
+    assert rec.run_hops() is rec.hops and rec.run_hops(1) is rec.hops
+    with pytest.raises(ValueError, match=r"run must be one of \[1\] \(got 2\)"):
+        rec.provider(run=2)
+
+
 # -- errors and output -------------------------------------------------------------------------
 
 
