@@ -12,18 +12,30 @@ state and their receptions commute: a round is processed as one batch of sparse 
 
 * link set ``(r, j)``: ``L_ASYM_time``, ``L_SYM_time``, ``L_time`` and the time first heard;
 * 2-hop set ``(r, j, x)`` and MPR-selector set ``(r, j)``: expiry times;
-* topology set: for each ``(r, last)`` the TC round last received from ``last`` and its expiry
-  (the tuples ``(dest, last)`` are that TC's advertised set, stored once per round).
+* topology set: for each ``(r, last)`` the TC round last received from ``last``, its ANSN and
+  its expiry (the tuples ``(dest, last)`` are that TC's advertised set, stored once per round),
+  plus the *lingering* tuples ``(r, last, dest)`` that an earlier TC of the same ANSN listed
+  and the latest no longer does, each with its own expiry (RFC 9.5; see below).
 
 Link sensing (RFC 7.1.1): a HELLO from ``j`` sets ``L_ASYM_time = t + V``; if it lists ``r`` as
 a symmetric or asymmetric link, ``L_SYM_time = t + V`` and ``L_time = L_SYM_time + V``; listed as
-lost, ``L_SYM_time = t - 1``. ``V`` is the neighbour hold time (6 s).
+lost, ``L_SYM_time = t - 1``. ``V`` is the neighbour hold time (6 s). A link tuple is gone once
+``L_time`` passes (ns-3 ``LinkTupleTimerExpire``): the next HELLO from ``j`` creates a new one.
 
 Routing tables are recomputed, as in ns-3, only when a node receives an OLSR packet or loses a
 symmetric neighbour, not when a tuple expires. Node ``r``'s table at time ``t`` is therefore the
 RFC section 10 computation on its tuples still valid at ``c_r`` = the later of its last packet
 reception and its last symmetric-link expiry before ``t``; it is evaluated lazily when a
-snapshot is read.
+snapshot is read. A 2-hop or topology tuple is therefore kept until it expired before its
+owner's ``c_r``, not merely before ``t``.
+
+Topology set, as ns-3 ``ProcessTc`` keeps it (RFC 9.5): a TC with a newer ANSN than the
+tuples ``r`` holds from its originator replaces them; one with the same ANSN refreshes the
+tuples it lists and leaves the others until their own expiry. ns-3 increments a node's ANSN
+when it gains a neighbour tuple (a new link tuple) or an MPR selector, and when a selector
+tuple expires on its own timer, but not when ``NeighborLoss`` erases a selector whose link
+lapsed: the TCs after such a loss keep the ANSN, and the lost neighbour stays in the
+receivers' topology sets for up to the topology hold time.
 
 TC flooding (RFC 3.4, 9): each TC is flooded wave by wave through the link graph in force when
 it is built; a node accepts a copy only from a symmetric neighbour, processes only the first
@@ -33,7 +45,8 @@ arrival times are then queued and applied when the clock passes them.
 Approximations, documented in ``docs/network.md``: TC floods use the link state and positions
 at the time the TC is built; a flood's wave order stands in for exact time order between waves;
 MPR sets are recomputed when HELLOs are built rather than after every reception; HELLO and TC
-messages are not aggregated into one packet.
+messages are not aggregated into one packet; every frame in range arrives (ns-3 loses about 2 %
+of them to collisions in a 40-UAV swarm, ``docs/ns3.md``).
 
 Control traffic: every HELLO and every TC a node originates or forwards is counted, with its
 size in bytes (:mod:`.wire`), when it is sent (its jitter elapsed);
@@ -106,7 +119,12 @@ class OlsrEngine:
         self.links = KeyedTable(("asym", "sym", "ltime", "created"))
         self.two_hop = KeyedTable(("expiry",))
         self.selectors = KeyedTable(("expiry",))
-        self.topology = KeyedTable(("expiry", "round"))
+        self.topology = KeyedTable(("expiry", "round", "ansn"))
+        # Topology tuples (r, last, dest) that r keeps from an earlier TC of the same ANSN
+        # although the latest TC of ``last`` it received no longer lists ``dest``.
+        self.lingering = KeyedTable(("expiry",))
+        # Advertised neighbour sequence number of each node (ns-3 IncrementAnsn).
+        self.ansn = np.zeros(n, dtype=np.int64)
         self.last_rx = np.full(n, -np.inf)
         # Latest symmetric-link lapse of each node among link tuples already removed.
         self._lapsed = np.full(n, -np.inf)
@@ -119,7 +137,7 @@ class OlsrEngine:
         self._hello_send = np.full(n, np.inf)
         self._hello_bytes = np.zeros(n, dtype=np.int64)  # size of each node's HELLO this round
         # Queued TC deliveries (receiver, originator, time, round) and heard packets.
-        self._tc_rounds: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._tc_rounds: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._tc_round_id = 0
         self._last_tc: int | None = None  # round id of the latest TC round, if any TC was sent
         self._q_r = np.zeros(0, dtype=np.int64)
@@ -144,13 +162,14 @@ class OlsrEngine:
             if build > to_time:
                 break
             self._deliver_until(build, graph)
+            # Before building: a TC carries the ANSN after the selector expiries up to now.
+            self._prune(build)
             if self.next_hello == build:
                 self._build_hellos(build)
                 self.next_hello = build + self.cfg.hello_interval_s
             if not self.hello_only and self.next_tc == build:
                 self._build_tc(build, graph)
                 self.next_tc = build + self.cfg.tc_interval_s
-            self._prune(build)
         self._deliver_until(to_time, graph)
         self.time = float(to_time)
 
@@ -195,21 +214,49 @@ class OlsrEngine:
         np.add.at(tr["tc_forwarded_bytes"], node[forwarded], size[forwarded])
 
     def _prune(self, t: float) -> None:
+        """Drop the tuples that can no longer matter at ``t``.
+
+        Link and MPR-selector tuples go when they expire, as ns-3's timers remove them. A
+        selector tuple that expires on its own increments its node's ANSN
+        (``MprSelTupleTimerExpire`` -> ``RemoveMprSelectorTuple`` -> ``IncrementAnsn``); one
+        whose link lapses at the same instant (the same HELLO refreshed both) is erased first
+        by ``NeighborLoss`` (``EraseMprSelectorTuples``), which leaves the ANSN alone: the link
+        timer was scheduled earlier. Then :meth:`_forget`.
+        """
+        n = self._nn
+        gone = self.selectors.cols["expiry"] < t
+        if gone.any():
+            keys = self.selectors.keys[gone]
+            own_timer = self.selectors.cols["expiry"][gone] < self.links.get("sym", keys)
+            np.add.at(self.ansn, keys[own_timer] // n, 1)
+            self.selectors.keep(~gone)
         gone = self.links.cols["ltime"] < t
         if gone.any():
             # Keep their lapse instants: they are routing-table recomputations (ns-3
             # NeighborLoss) that the clock of :meth:`_clock` must not forget.
-            np.maximum.at(
-                self._lapsed, self.links.keys[gone] // self._nn, self.links.cols["sym"][gone]
-            )
+            np.maximum.at(self._lapsed, self.links.keys[gone] // n, self.links.cols["sym"][gone])
             self.links.keep(~gone)
-        for table in (self.two_hop, self.selectors, self.topology):
-            table.keep(table.cols["expiry"] >= t)
+        self._forget(t)
         live = set(np.unique(self._q_round).tolist())
         live |= set(np.unique(self.topology.cols["round"]).astype(int).tolist())
         if self._last_tc is not None:
             live.add(self._last_tc)
         self._tc_rounds = {k: v for k, v in self._tc_rounds.items() if k in live}
+
+    def _forget(self, t: float) -> None:
+        """Drop the 2-hop and topology tuples that expired before their owner's last
+        routing-table computation (:meth:`_clock` at ``t``): no table can use them again.
+
+        Only those: a tuple that expires later still gives its route until the owner
+        recomputes, since ns-3 removes an expired tuple (``Nb2hopTupleTimerExpire``,
+        ``TopologyTupleTimerExpire``) without recomputing the table. Memory only: the tables
+        are the same whether or not this runs.
+        """
+        n = self._nn
+        clock = self._clock(t)
+        self.two_hop.keep(self.two_hop.cols["expiry"] > clock[self.two_hop.keys // (n * n)])
+        for table, base in ((self.topology, n), (self.lingering, n * n)):
+            table.keep(table.cols["expiry"] > clock[table.keys // base])
 
     # ------------------------------------------------------------------ state views
     def _clock(self, t: float) -> np.ndarray:
@@ -314,7 +361,7 @@ class OlsrEngine:
         or ``None`` if it sent none (ns-3 sends no empty TC)."""
         if self._last_tc is None:
             return None
-        keys, ptr = self._tc_rounds[self._last_tc]
+        keys, ptr, _ = self._tc_rounds[self._last_tc]
         sel = keys[ptr[node] : ptr[node + 1]] % self._nn
         return sel.astype(int).tolist() if sel.size else None
 
@@ -355,7 +402,11 @@ class OlsrEngine:
         ntype[found] = self._hello_neigh[hi[found]]
         # Link sensing, RFC 7.1.1.
         lkey = r * n + j
-        _, lfound = self.links.find(lkey)
+        # ns-3 removes a link tuple once its L_time passes (LinkTupleTimerExpire): a HELLO
+        # after that creates a new one, and with it a neighbour tuple (AddNeighborTuple),
+        # which increments the ANSN.
+        lfound = self.links.get("ltime", lkey) >= d
+        np.add.at(self.ansn, r[~lfound], 1)
         sym_t = np.where(lfound, self.links.get("sym", lkey), d - 1.0)
         ltime = np.where(lfound, self.links.get("ltime", lkey), d + V)
         created = np.where(lfound, self.links.get("created", lkey), d)
@@ -381,6 +432,9 @@ class OlsrEngine:
         # MPR-selector set, RFC 8.4.1.
         sel = ntype == _MPR_NEIGH
         if sel.any():
+            # A new selector tuple increments the ANSN (AddMprSelectorTuple).
+            new = self.selectors.get("expiry", lkey[sel]) < d[sel]
+            np.add.at(self.ansn, r[sel][new], 1)
             self.selectors.upsert(lkey[sel], expiry=d[sel] + V)
 
     @staticmethod
@@ -404,7 +458,7 @@ class OlsrEngine:
         self._tc_round_id += 1
         self._last_tc = rid
         ptr = np.searchsorted(sk, np.arange(self.n + 1) * n)
-        self._tc_rounds[rid] = (sk, ptr)
+        self._tc_rounds[rid] = (sk, ptr, self.ansn.copy())
         tc_bytes = wire.tc_size(np.diff(ptr))  # of each originator's TC, forwarded copies too
         # Link and selector state as of the build time.
         size = int(n * n)
@@ -462,17 +516,61 @@ class OlsrEngine:
         self._tx_fwd = np.concatenate([self._tx_fwd, tx_node != tx_msg])
 
     def _receive_tcs(self, r: np.ndarray, o: np.ndarray, t: np.ndarray, rounds: np.ndarray):
+        """TC processing, RFC 3626 section 9.5 as ns-3 3.44 ``ProcessTc`` does it.
+
+        Receiver ``r`` of originator ``o``'s TC with sequence number ``ansn``: (2) ignores it if
+        it holds a tuple of ``o`` with a newer ANSN; (3) removes ``o``'s tuples with an older
+        ANSN; (4) refreshes or adds a tuple per advertised neighbour. Tuples of the same ANSN
+        that the TC no longer lists are therefore kept until their own expiry: they move to
+        :attr:`lingering` with the expiry of the TC that last listed them. Within one ANSN
+        the advertised set only shrinks (a selector is added, or expires on its own, only with
+        a new ANSN), so the lingering tuples are those of the previous TC that the new one
+        leaves out.
+        """
         n, hold = self._nn, self.cfg.topology_hold_s
         for rid in np.unique(rounds):
             sel = rounds == rid
             rr, oo, tt = r[sel], o[sel], t[sel]
-            # Replaces whatever r held from o (RFC 9.5: older ANSN tuples are removed).
-            self.topology.upsert(rr * n + oo, expiry=tt + hold, round=float(rid))
+            content, _, ansn = self._tc_rounds[int(rid)]
+            key, a = rr * n + oo, ansn[oo].astype(float)
+            idx, found = self.topology.find(key)
+            old_a = np.full(key.size, -np.inf)
+            old_a[found] = self.topology.cols["ansn"][idx[found]]
+            accept = ~(old_a > a)
+            key, oo, tt, a, old_a = key[accept], oo[accept], tt[accept], a[accept], old_a[accept]
+            same = old_a == a
+            # Step 3: a new ANSN erases the older tuples, lingering ones included.
+            self.lingering.drop_prefixes(key[~same], n)
+            if same.any():
+                self._linger(key[same], oo[same], content)
+            self.topology.upsert(key, expiry=tt + hold, round=float(rid), ansn=a)
+
+    def _linger(self, key: np.ndarray, o: np.ndarray, content: np.ndarray) -> None:
+        """For receptions ``key = r * N + o`` of a TC with the same ANSN as the one ``r``
+        holds: keep the previously advertised neighbours the new TC (``content``, sorted keys
+        ``o * N + dest``) leaves out, and drop the lingering tuples it lists again."""
+        n = self._nn
+        old_round = self.topology.get("round", key).astype(np.int64)
+        old_expiry = self.topology.get("expiry", key)
+        for rid in np.unique(old_round):
+            at = np.flatnonzero(old_round == rid)
+            prev, ptr, _ = self._tc_rounds[int(rid)]
+            pos, k = csr_gather(ptr, o[at])
+            dest = prev[pos] % n
+            left_out = ~sorted_contains(content, o[at][k] * n + dest)
+            keys = key[at][k][left_out] * n + dest[left_out]
+            self.lingering.upsert(keys, expiry=old_expiry[at][k][left_out])
+        lk = self.lingering.keys
+        relisted = sorted_contains(np.unique(key), lk // n) & sorted_contains(
+            content, (lk // n) % n * n + lk % n
+        )
+        if relisted.any():
+            self.lingering.keep(~relisted)
 
 
 class _RoundTopology:
-    """Topology tuples of every node, as the TC round each ``(r, last)`` holds (see
-    :func:`~.routing.compute_routes`)."""
+    """Topology tuples of every node, as the TC round each ``(r, last)`` holds plus the
+    lingering tuples (see :func:`~.routing.compute_routes`)."""
 
     def __init__(self, engine: OlsrEngine, clock: np.ndarray) -> None:
         n = engine._nn
@@ -482,6 +580,12 @@ class _RoundTopology:
         self.round = table.cols["round"][ok].astype(np.int64)
         self.rounds = engine._tc_rounds
         self.n = n
+        lk = engine.lingering.keys
+        ok = engine.lingering.cols["expiry"] > clock[lk // (n * n)]
+        self.linger_last = lk[ok] // n  # sorted owner * N + last
+        self.linger_dest = lk[ok] % n
+        self.lingers = KeySet(int(n * n))
+        self.lingers.add(self.linger_last)
         self.dense = None
         if n * n <= tables.DENSE_LIMIT:
             self.dense = np.full(int(n * n), -1, dtype=np.int32)
@@ -502,10 +606,18 @@ class _RoundTopology:
         src_all, dest_all = [], []
         for r in np.unique(rid):
             sel = hit[rid == r]
-            content, ptr = self.rounds[int(r)]
+            content, ptr, _ = self.rounds[int(r)]
             pos, k = csr_gather(ptr, keys[sel] % n)
             src_all.append(sel[k])
             dest_all.append(content[pos] % n)
+        if self.linger_last.size:
+            q = np.flatnonzero(self.lingers.contains(keys))
+            lo = np.searchsorted(self.linger_last, keys[q], "left")
+            hi = np.searchsorted(self.linger_last, keys[q], "right")
+            ptr = np.concatenate([[0], np.cumsum(hi - lo)])
+            pos, k = csr_gather(ptr, np.arange(q.size))
+            src_all.append(q[k])
+            dest_all.append(self.linger_dest[lo[k] + pos - ptr[k]])
         if not src_all:
             e = np.zeros(0, dtype=np.int64)
             return e, e
