@@ -71,6 +71,25 @@ def test_agreement_counts_entries_either_backend_routes():
     assert conf[(1, 1)] == 8
 
 
+def test_by_hops_splits_agreement_by_route_length():
+    n = 4
+    ref = np.array([[0, 1, 2, 3], [1, 0, 1, 2], [2, 1, 0, 1], [3, 2, 1, 0]])
+    other = ref.copy()
+    other[0, 3], other[3, 0], other[1, 3] = 4, -1, -1  # longer, lost, lost
+    result = compare(still_trace(n, 1.0), [Scripted([ref], "a"), Scripted([other], "b")], 1.0)
+    rows = result.by_hops("b").set_index("hops")
+    # two samples (t = 0, 1) of: 6 one-hop, 4 two-hop, 2 three-hop routes in the reference
+    assert rows.loc["1"].tolist()[:4] == [12, 12, 12, 12]
+    assert rows.loc["2"].tolist()[:4] == [8, 6, 8, 6]
+    assert rows.loc["3"].tolist()[:4] == [4, 0, 4, 0]
+    assert rows.loc["4"].tolist()[:4] == [0, 2, 2, 0]
+    assert rows.loc["5+", "agreement"] == 1.0 and rows.loc["5+", "entries"] == 0
+    assert rows.loc["all", "agreement"] == pytest.approx(result.agreement("b"))
+    summary = result.summary()["agreement"]["b"]["by_hops"]
+    assert summary["3"] == {"agreement": 0.0, "entries": 4, "routes_reference": 4,
+                            "routes_backend": 0}  # fmt: skip
+
+
 def test_within_two_hops_ignores_far_disagreements():
     a = np.array([[0, 1, 3], [1, 0, 0], [3, 0, 0]])
     b = np.array([[0, 1, 4], [1, 0, 0], [4, 0, 0]])
