@@ -101,3 +101,24 @@ def test_forgetting_expired_tuples_never_changes_a_table(monkeypatch):
     (kept, small), (full, large) = runs
     np.testing.assert_array_equal(kept, full)
     assert small < large and (kept >= 3).sum() > 0
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("deselect", [False, True])
+def test_a_relay_forwards_by_its_selectors_when_the_copy_arrives(seed, deselect):
+    # ns-3 ForwardDefault looks the sender up in the MPR-selector set when the copy arrives
+    # (FindMprSelectorTuple), not when the TC was built: HELLOs received during a flood change
+    # who relays it. Line a-b-c-d: c relays b's TCs to d because b selected c as MPR.
+    d = 3
+    line = np.array([[0.0, 0, 0], [300.0, 0, 0], [600.0, 0, 0], [900.0, 0, 0]])
+    p = OlsrProvider(4, seed=seed)
+    p.reset(line)
+    p.advance(25.0, line)  # b's TC of t = 25 is built, not yet sent (jitter)
+    e = p.engine
+    assert e.tc_message(B) == [A, C]
+    if deselect:  # c stops counting b as a selector before the copy reaches it
+        e.selectors.keep(e.selectors.keys != C * 4 + B)
+    p.advance(26.0, line)
+    # d holds b's TC of 25 s only if c relayed it
+    round_at_d = e.topology.get("round", np.array([d * 4 + B]))[0]
+    assert (round_at_d == e._last_tc) is not deselect

@@ -37,16 +37,19 @@ tuple expires on its own timer, but not when ``NeighborLoss`` erases a selector 
 lapsed: the TCs after such a loss keep the ANSN, and the lost neighbour stays in the
 receivers' topology sets for up to the topology hold time.
 
-TC flooding (RFC 3.4, 9): each TC is flooded wave by wave through the link graph in force when
-it is built; a node accepts a copy only from a symmetric neighbour, processes only the first
-copy, and retransmits (after a new jitter) when the copy came from one of its MPR selectors. The
-arrival times are then queued and applied when the clock passes them.
+TC flooding (RFC 3.4, 9): each copy is sent when its jitter has elapsed and reaches the nodes
+linked to its sender then; a node accepts a copy only from a neighbour it has a symmetric link
+to at that moment, processes only the first copy, and retransmits (after a new jitter) when the
+sender is one of its MPR selectors at that moment (ns-3 ``ProcessTc`` and ``ForwardDefault``
+check both on arrival). The HELLOs of a round are on the air while the TCs built at the same
+instant are flooded; the MPR selectors they add relay those TCs. (Taking the link and selector
+state of the instant a TC was built instead cut nodes off for whole rounds in fast swarms.)
 
-Approximations, documented in ``docs/network.md``: TC floods use the link state and positions
-at the time the TC is built; a flood's wave order stands in for exact time order between waves;
-MPR sets are recomputed when HELLOs are built rather than after every reception; HELLO and TC
-messages are not aggregated into one packet; every frame in range arrives (ns-3 loses about 2 %
-of them to collisions in a 40-UAV swarm, ``docs/ns3.md``).
+Approximations, documented in ``docs/network.md``: the copies due within one ``run_until`` step
+are processed wave by wave (the earliest copy of a wave counts) with the link and selector state
+at the end of the step; MPR sets are recomputed when HELLOs are built rather than after every
+reception; HELLO and TC messages are not aggregated into one packet; every frame in range
+arrives (ns-3 loses about 2 % of them to collisions in a 40-UAV swarm, ``docs/ns3.md``).
 
 Control traffic: every HELLO and every TC a node originates or forwards is counted, with its
 size in bytes (:mod:`.wire`), when it is sent (its jitter elapsed);
@@ -136,21 +139,17 @@ class OlsrEngine:
         self._hello_neigh = np.zeros(0, dtype=np.int8)
         self._hello_send = np.full(n, np.inf)
         self._hello_bytes = np.zeros(n, dtype=np.int64)  # size of each node's HELLO this round
-        # Queued TC deliveries (receiver, originator, time, round) and heard packets.
+        # TC rounds: content (sorted keys originator*N+selector), row pointers, ANSN of each node.
         self._tc_rounds: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._tc_round_id = 0
         self._last_tc: int | None = None  # round id of the latest TC round, if any TC was sent
-        self._q_r = np.zeros(0, dtype=np.int64)
-        self._q_o = np.zeros(0, dtype=np.int64)
-        self._q_t = np.zeros(0)
-        self._q_round = np.zeros(0, dtype=np.int64)
-        self._heard_r = np.zeros(0, dtype=np.int64)
-        self._heard_t = np.zeros(0)
-        # Queued TC transmissions (sender, send time, bytes, forwarded?) and the counters.
-        self._tx_node = np.zeros(0, dtype=np.int64)
-        self._tx_t = np.zeros(0)
-        self._tx_bytes = np.zeros(0, dtype=np.int64)
-        self._tx_fwd = np.zeros(0, dtype=bool)
+        # Floods under way: pending transmissions (originator, sender, send time, round) and,
+        # per round, the (originator, node) pairs that processed their copy (duplicate set).
+        self._fl_msg = np.zeros(0, dtype=np.int64)
+        self._fl_node = np.zeros(0, dtype=np.int64)
+        self._fl_t = np.zeros(0)
+        self._fl_round = np.zeros(0, dtype=np.int64)
+        self._reached: dict[int, KeySet] = {}
         self._traffic_since = float(start_time)
         self._traffic = self._zero_traffic()
 
@@ -168,7 +167,7 @@ class OlsrEngine:
                 self._build_hellos(build)
                 self.next_hello = build + self.cfg.hello_interval_s
             if not self.hello_only and self.next_tc == build:
-                self._build_tc(build, graph)
+                self._build_tc(build)
                 self.next_tc = build + self.cfg.tc_interval_s
         self._deliver_until(to_time, graph)
         self.time = float(to_time)
@@ -184,27 +183,63 @@ class OlsrEngine:
             self._traffic["hello_bytes"][due] += self._hello_bytes[due]
             self._receive_hellos(due, graph)
             self._hello_send[due] = np.inf
-        if self._q_t.size:
-            now = self._q_t <= t
-            if now.any():
-                self._receive_tcs(
-                    self._q_r[now], self._q_o[now], self._q_t[now], self._q_round[now]
-                )
-                keep = ~now
-                self._q_r, self._q_o = self._q_r[keep], self._q_o[keep]
-                self._q_t, self._q_round = self._q_t[keep], self._q_round[keep]
-        if self._heard_t.size:
-            now = self._heard_t <= t
-            if now.any():
-                np.maximum.at(self.last_rx, self._heard_r[now], self._heard_t[now])
-                self._heard_r, self._heard_t = self._heard_r[~now], self._heard_t[~now]
-        if self._tx_t.size:
-            now = self._tx_t <= t
-            if now.any():
-                self._count_tcs(self._tx_node[now], self._tx_bytes[now], self._tx_fwd[now])
-                keep = ~now
-                self._tx_node, self._tx_t = self._tx_node[keep], self._tx_t[keep]
-                self._tx_bytes, self._tx_fwd = self._tx_bytes[keep], self._tx_fwd[keep]
+        self._flood(t, graph)
+
+    def _flood(self, t: float, graph: LinkGraph) -> None:
+        """Send every TC copy due by ``t`` and process its receptions (RFC 3626 3.4.1, ns-3
+        ``RecvOlsr``, ``ProcessTc`` and ``ForwardDefault``), wave after wave until none is due.
+
+        A node accepts a copy only from a neighbour it has a symmetric link to when the copy
+        arrives, processes only the first copy of each message (the earliest of a wave), and
+        retransmits it after a new jitter when the sender is one of its MPR selectors at that
+        moment. Link and selector state are those after every HELLO received by ``t``: the HELLOs
+        of a round go out while the TCs built at the same instant are flooded, and the MPR
+        selectors they add forward those TCs, as in ns-3.
+        """
+        n = self._nn
+        size = int(n * n)
+        got = []  # receptions (node, originator, time, round); applied together at the end
+        sym_time = self.links.getter("sym", size)
+        selector_expiry = self.selectors.getter("expiry", size)
+        while True:
+            now = self._fl_t <= t
+            if not now.any():
+                break
+            msg, fwd, ts, rd = (
+                a[now] for a in (self._fl_msg, self._fl_node, self._fl_t, self._fl_round)
+            )
+            self._fl_msg, self._fl_node = self._fl_msg[~now], self._fl_node[~now]
+            self._fl_t, self._fl_round = self._fl_t[~now], self._fl_round[~now]
+            pos, idx = csr_gather(graph.indptr, fwd)
+            r = graph.indices[pos].astype(np.int64)
+            m, f, tt, rid = msg[idx], fwd[idx], ts[idx], rd[idx]
+            np.maximum.at(self.last_rx, r, tt)  # every packet heard recomputes the table
+            ok = (r != m) & (sym_time(r * n + f) >= tt)
+            sent = []
+            for k in np.unique(rd):
+                ptr = self._tc_rounds[int(k)][1]
+                this = rd == k
+                sent.append((fwd[this], wire.tc_size(np.diff(ptr))[msg[this]], msg[this]))
+                at = np.flatnonzero(ok & (rid == k))
+                mk = m[at] * n + r[at]
+                fresh = ~self._reached[int(k)].contains(mk)
+                at, mk = at[fresh], mk[fresh]
+                if not at.size:
+                    continue
+                at = at[first_per_key(mk, size, np.argsort(tt[at], kind="stable"))]
+                self._reached[int(k)].add(m[at] * n + r[at])
+                got.append((r[at], m[at], tt[at], np.full(at.size, k)))
+                relay = at[selector_expiry(r[at] * n + f[at]) >= tt[at]]
+                self._fl_msg = np.concatenate([self._fl_msg, m[relay]])
+                self._fl_node = np.concatenate([self._fl_node, r[relay]])
+                self._fl_t = np.concatenate([self._fl_t, tt[relay] + self._jitter(relay.size)])
+                self._fl_round = np.concatenate([self._fl_round, np.full(relay.size, k)])
+            node, nbytes, orig = (np.concatenate(x) for x in zip(*sent, strict=True))
+            self._count_tcs(node, nbytes, node != orig)
+        if got:
+            self._receive_tcs(*(np.concatenate(x) for x in zip(*got, strict=True)))
+        live = set(np.unique(self._fl_round).tolist())
+        self._reached = {k: v for k, v in self._reached.items() if k in live}
 
     def _count_tcs(self, node: np.ndarray, size: np.ndarray, forwarded: np.ndarray) -> None:
         tr, orig = self._traffic, ~forwarded
@@ -237,7 +272,7 @@ class OlsrEngine:
             np.maximum.at(self._lapsed, self.links.keys[gone] // n, self.links.cols["sym"][gone])
             self.links.keep(~gone)
         self._forget(t)
-        live = set(np.unique(self._q_round).tolist())
+        live = set(np.unique(self._fl_round).tolist())
         live |= set(np.unique(self.topology.cols["round"]).astype(int).tolist())
         if self._last_tc is not None:
             live.add(self._last_tc)
@@ -445,7 +480,7 @@ class OlsrEngine:
         return idx, found
 
     # ------------------------------------------------------------------ TC
-    def _build_tc(self, b: float, graph: LinkGraph) -> None:
+    def _build_tc(self, b: float) -> None:
         n = self._nn
         live = self.selectors.cols["expiry"] >= b
         sk = self.selectors.keys[live]
@@ -453,67 +488,20 @@ class OlsrEngine:
         if sk.size == 0:
             return
         # TC of o lists its MPR selectors: content keys o*N + selector.
-        origins = np.unique(sk // n)
+        origins = np.unique(sk // n).astype(np.int64)
         rid = self._tc_round_id
         self._tc_round_id += 1
         self._last_tc = rid
         ptr = np.searchsorted(sk, np.arange(self.n + 1) * n)
         self._tc_rounds[rid] = (sk, ptr, self.ansn.copy())
-        tc_bytes = wire.tc_size(np.diff(ptr))  # of each originator's TC, forwarded copies too
-        # Link and selector state as of the build time.
-        size = int(n * n)
-        sym_ok = KeySet(size)
-        sym_ok.add(self.links.keys[self.links.cols["sym"] >= b])
-        selector = KeySet(size)
-        selector.add(sk)
-        msg = origins.astype(np.int64)
-        fwd = origins.astype(np.int64)
-        t_send = b + self._jitter(origins.size)
         reached = KeySet(int(n * n))
-        reached.add(msg * n + msg)
-        out_r, out_o, out_t = [], [], []
-        heard_r, heard_t = [], []
-        tx_node, tx_t, tx_msg = [], [], []
-        while msg.size:
-            # fwd transmits its copy of msg at t_send: the originator itself in the first wave.
-            tx_node.append(fwd)
-            tx_t.append(t_send)
-            tx_msg.append(msg)
-            pos, idx = csr_gather(graph.indptr, fwd)
-            r = graph.indices[pos].astype(np.int64)
-            m, f, t = msg[idx], fwd[idx], t_send[idx]
-            heard_r.append(r)
-            heard_t.append(t)
-            mk = m * n + r
-            ok = sym_ok.contains(r * n + f) & (r != m)
-            ok &= ~reached.contains(mk)
-            if not ok.any():
-                break
-            mk, r, f, t, m = mk[ok], r[ok], f[ok], t[ok], m[ok]
-            # Each node processes the earliest copy of each message in this wave.
-            sel = first_per_key(mk, size, np.argsort(t, kind="stable"))
-            mk, r, f, t, m = mk[sel], r[sel], f[sel], t[sel], m[sel]
-            reached.add(mk)
-            out_r.append(r)
-            out_o.append(m)
-            out_t.append(t)
-            # Retransmit when the copy came from an MPR selector of r.
-            relay = selector.contains(r * n + f)
-            msg, fwd = m[relay], r[relay]
-            t_send = t[relay] + self._jitter(int(relay.sum()))
-        if out_r:
-            self._q_r = np.concatenate([self._q_r, *out_r])
-            self._q_o = np.concatenate([self._q_o, *out_o])
-            self._q_t = np.concatenate([self._q_t, *out_t])
-            total = sum(a.size for a in out_r)
-            self._q_round = np.concatenate([self._q_round, np.full(total, rid)])
-        self._heard_r = np.concatenate([self._heard_r, *heard_r])
-        self._heard_t = np.concatenate([self._heard_t, *heard_t])
-        tx_node, tx_msg = np.concatenate(tx_node), np.concatenate(tx_msg)
-        self._tx_node = np.concatenate([self._tx_node, tx_node])
-        self._tx_t = np.concatenate([self._tx_t, *tx_t])
-        self._tx_bytes = np.concatenate([self._tx_bytes, tc_bytes[tx_msg]])
-        self._tx_fwd = np.concatenate([self._tx_fwd, tx_node != tx_msg])
+        reached.add(origins * n + origins)
+        self._reached[rid] = reached
+        # Each originator sends its TC after a jitter; :meth:`_flood` takes it from there.
+        self._fl_msg = np.concatenate([self._fl_msg, origins])
+        self._fl_node = np.concatenate([self._fl_node, origins])
+        self._fl_t = np.concatenate([self._fl_t, b + self._jitter(origins.size)])
+        self._fl_round = np.concatenate([self._fl_round, np.full(origins.size, rid)])
 
     def _receive_tcs(self, r: np.ndarray, o: np.ndarray, t: np.ndarray, rounds: np.ndarray):
         """TC processing, RFC 3626 section 9.5 as ns-3 3.44 ``ProcessTc`` does it.
@@ -540,7 +528,10 @@ class OlsrEngine:
             key, oo, tt, a, old_a = key[accept], oo[accept], tt[accept], a[accept], old_a[accept]
             same = old_a == a
             # Step 3: a new ANSN erases the older tuples, lingering ones included.
-            self.lingering.drop_prefixes(key[~same], n)
+            if len(self.lingering):
+                erase = KeySet(int(n * n))
+                erase.add(key[~same])
+                self.lingering.keep(~erase.contains(self.lingering.keys // n))
             if same.any():
                 self._linger(key[same], oo[same], content)
             self.topology.upsert(key, expiry=tt + hold, round=float(rid), ansn=a)
