@@ -34,8 +34,8 @@ def test_committed_positions_are_what_the_scenarios_generate(name):
     pd.testing.assert_frame_equal(SCENARIOS[name].positions(), committed, check_dtype=False)
 
 
-@pytest.mark.parametrize("name", ["fast_20", "fast_30", "fast_40"])
-def test_fast_recordings_hold_ten_ns3_runs_with_their_command(name):
+@pytest.mark.parametrize("name", ["waypoint_20_fine", "fast_20", "fast_30", "fast_40"])
+def test_multi_run_recordings_hold_ten_ns3_runs_with_their_command(name):
     rec = read_recording(os.path.join(DATA, name))
     assert rec.runs == tuple(range(1, 11)) == SCENARIOS[name].runs
     assert rec.meta["runs"] == list(range(1, 11)) and "run" not in rec.meta
@@ -46,6 +46,14 @@ def test_fast_recordings_hold_ten_ns3_runs_with_their_command(name):
     # docs/reference.md section 4)
     times = rec.hops.groupby("run")["t"].unique()
     assert all(set(t) == set(np.arange(3.0, 151.0)) for t in times)
+
+
+def test_fine_waypoint_20_is_the_waypoint_20_flight_every_0_1_s():
+    coarse = SCENARIOS["waypoint_20"].positions()
+    fine = SCENARIOS["waypoint_20_fine"].positions()
+    common = fine[np.isin(fine["t"], coarse["t"].unique())].reset_index(drop=True)
+    assert len(common) == len(coarse) and fine["t"].nunique() == 1501
+    np.testing.assert_allclose(common[["x", "y"]], coarse[["x", "y"]], atol=0.05)  # 0.1 m
 
 
 @pytest.mark.parametrize(("name", "n", "side"), [("fast_20", 20, 1000.0), ("fast_40", 40, 1415.0)])

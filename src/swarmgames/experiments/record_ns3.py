@@ -15,6 +15,8 @@ its run number, recorded in ``meta.json``):
 * ``hex_expand``: 7 UAVs, a centre and a ring of 6 whose radius holds at 100 m for 10 s, grows
   at 5 m/s to 500 m, shrinks back to 100 m and holds (180 s); positions every 0.1 s, tables
   every 0.5 s (docs/reference.md section 4).
+* ``waypoint_20_fine``: the flight of ``waypoint_20`` with positions every 0.1 s (to 0.1 m),
+  tables every 1 s, ten ns-3 runs (run numbers 1-10), stored like the ``fast_*`` folders.
 * ``fast_20``, ``fast_30``, ``fast_40``: 20, 30 and 40 UAVs flying random waypoints at
   15-30 m/s (pauses 0-2 s) for 150 s over squares of 1000, 1225 and 1415 m (the density of
   ``waypoint_20``, routes of up to 6-7 hops); positions every 0.1 s (to 0.1 m),
@@ -164,12 +166,18 @@ def _fast(n: int, side_m: float, seed: int) -> Scenario:
     return Scenario(positions, 1.0, runs=tuple(range(1, 11)), compressed=True)
 
 
+def _fine_waypoint_20() -> pd.DataFrame:
+    # The waypoint_20 flight (its seed draws the same legs) sampled every 0.1 s.
+    return random_waypoint(20, 1000.0, 150.0, 0.1, seed=2005, decimals=1)
+
+
 SCENARIOS: dict[str, Scenario] = {
     "static_7": Scenario(lambda: static_layout(7, 800.0, 40.0, seed=7), 5.0),
     "static_20": Scenario(lambda: static_layout(20, 1200.0, 40.0, seed=20), 5.0),
     "static_50": Scenario(lambda: static_layout(50, 1800.0, 40.0, seed=50), 5.0),
     "waypoint_20": Scenario(lambda: random_waypoint(20, 1000.0, 150.0, 0.5, seed=2005), 1.0),
     "hex_expand": Scenario(lambda: hex_expand(180.0, 0.1), 0.5),
+    "waypoint_20_fine": Scenario(_fine_waypoint_20, 1.0, runs=tuple(range(1, 11)), compressed=True),
     "fast_20": _fast(20, 1000.0, seed=3020),
     "fast_30": _fast(30, 1225.0, seed=3030),
     "fast_40": _fast(40, 1415.0, seed=3040),
