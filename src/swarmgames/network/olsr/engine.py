@@ -196,6 +196,8 @@ class OlsrEngine:
         of a round go out while the TCs built at the same instant are flooded, and the MPR
         selectors they add forward those TCs, as in ns-3.
         """
+        if not (self._fl_t <= t).any():
+            return
         n = self._nn
         size = int(n * n)
         got = []  # receptions (node, originator, time, round); applied together at the end
