@@ -71,6 +71,25 @@ def test_agreement_counts_entries_either_backend_routes():
     assert conf[(1, 1)] == 8
 
 
+def test_by_hops_splits_agreement_by_route_length():
+    n = 4
+    ref = np.array([[0, 1, 2, 3], [1, 0, 1, 2], [2, 1, 0, 1], [3, 2, 1, 0]])
+    other = ref.copy()
+    other[0, 3], other[3, 0], other[1, 3] = 4, -1, -1  # longer, lost, lost
+    result = compare(still_trace(n, 1.0), [Scripted([ref], "a"), Scripted([other], "b")], 1.0)
+    rows = result.by_hops("b").set_index("hops")
+    # two samples (t = 0, 1) of: 6 one-hop, 4 two-hop, 2 three-hop routes in the reference
+    assert rows.loc["1"].tolist()[:4] == [12, 12, 12, 12]
+    assert rows.loc["2"].tolist()[:4] == [8, 6, 8, 6]
+    assert rows.loc["3"].tolist()[:4] == [4, 0, 4, 0]
+    assert rows.loc["4"].tolist()[:4] == [0, 2, 2, 0]
+    assert rows.loc["5+", "agreement"] == 1.0 and rows.loc["5+", "entries"] == 0
+    assert rows.loc["all", "agreement"] == pytest.approx(result.agreement("b"))
+    summary = result.summary()["agreement"]["b"]["by_hops"]
+    assert summary["3"] == {"agreement": 0.0, "entries": 4, "routes_reference": 4,
+                            "routes_backend": 0}  # fmt: skip
+
+
 def test_within_two_hops_ignores_far_disagreements():
     a = np.array([[0, 1, 3], [1, 0, 0], [3, 0, 0]])
     b = np.array([[0, 1, 4], [1, 0, 0], [4, 0, 0]])
@@ -174,6 +193,51 @@ def test_recorded_provider_rejects_bad_rows():
 def test_read_recording_needs_all_files(tmp_path):
     with pytest.raises(InputDataError, match=r"no positions\.csv"):
         read_recording(tmp_path)
+
+
+def _two_run_folder(folder, suffix, compression):
+    positions = pd.DataFrame({"t": [0.0, 0.0], "node": [0, 1], "x": [0.0, 100.0], "y": 0.0,
+                              "z": 0.0})  # fmt: skip
+    hops = pd.DataFrame({"run": [3, 3, 7], "t": [1.0, 1.0, 1.0], "node": [0, 1, 0],
+                         "dest": [1, 0, 1], "hops": [1, 1, 2]})  # fmt: skip
+    folder.mkdir()
+    positions.to_csv(folder / f"positions{suffix}", index=False, compression=compression)
+    hops.to_csv(folder / f"hops{suffix}", index=False, compression=compression)
+    (folder / "meta.json").write_text(json.dumps({"sample": 1.0, "runs": [3, 7]}))
+    return positions, hops
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".csv.xz", ".csv.gz"])
+def test_read_recording_reads_plain_xz_and_gzip_files(tmp_path, suffix):
+    positions, hops = _two_run_folder(tmp_path / "rec", suffix, "infer")
+    rec = read_recording(tmp_path / "rec")
+    pd.testing.assert_frame_equal(rec.positions, positions)
+    pd.testing.assert_frame_equal(rec.hops, hops)
+
+
+def test_a_recording_of_several_runs_serves_one_run_at_a_time(tmp_path):
+    _two_run_folder(tmp_path / "rec", ".csv.xz", "xz")
+    rec = read_recording(tmp_path / "rec")
+    assert rec.runs == (3, 7)
+    assert list(rec.run_hops(7).columns) == ["t", "node", "dest", "hops"]
+    net = rec.provider("ns3 run 3", run=3)
+    net.reset(np.zeros((2, 3)))
+    assert net.advance(1.0, None).hop_matrix().tolist() == [[0, 1], [1, 0]]
+    net = rec.provider(run=7)
+    net.reset(np.zeros((2, 3)))
+    assert net.advance(1.0, None).hop_matrix().tolist() == [[0, 2], [-1, 0]]  # -1: no route
+    with pytest.raises(ValueError, match=r"run must be one of \[3, 7\] \(got None\)"):
+        rec.provider()
+    with pytest.raises(ValueError, match=r"run must be one of \[3, 7\] \(got 4\)"):
+        rec.run_hops(4)
+
+
+def test_a_single_run_recording_names_its_run_from_meta():
+    rec = read_recording(os.path.join(DATA, "waypoint_20"))
+    assert rec.runs == (1,)
+    assert rec.run_hops() is rec.hops and rec.run_hops(1) is rec.hops
+    with pytest.raises(ValueError, match=r"run must be one of \[1\] \(got 2\)"):
+        rec.provider(run=2)
 
 
 # -- errors and output -------------------------------------------------------------------------

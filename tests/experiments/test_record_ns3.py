@@ -17,6 +17,7 @@ from swarmgames.experiments.record_ns3 import (
     random_waypoint,
     static_layout,
 )
+from swarmgames.network.recorded import read_recording
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data", "ns3")
 
@@ -29,9 +30,41 @@ def test_hexagon_trace_equals_the_recorded_ns3_run():
 
 @pytest.mark.parametrize("name", sorted(SCENARIOS))
 def test_committed_positions_are_what_the_scenarios_generate(name):
-    factory, _ = SCENARIOS[name]
-    committed = pd.read_csv(os.path.join(DATA, name, "positions.csv"))
-    pd.testing.assert_frame_equal(factory(), committed, check_dtype=False)
+    committed = read_recording(os.path.join(DATA, name)).positions
+    pd.testing.assert_frame_equal(SCENARIOS[name].positions(), committed, check_dtype=False)
+
+
+@pytest.mark.parametrize("name", ["waypoint_20_fine", "fast_20", "fast_30", "fast_40"])
+def test_multi_run_recordings_hold_ten_ns3_runs_with_their_command(name):
+    rec = read_recording(os.path.join(DATA, name))
+    assert rec.runs == tuple(range(1, 11)) == SCENARIOS[name].runs
+    assert rec.meta["runs"] == list(range(1, 11)) and "run" not in rec.meta
+    assert rec.meta["command"].endswith(f"--only {name} --run 1 2 3 4 5 6 7 8 9 10")
+    assert rec.meta["dt"] == 0.1 and rec.sample_every == 1.0 and rec.meta["t_end"] == 150.0
+    assert list(rec.hops.columns) == ["run", "t", "node", "dest", "hops"]
+    # every run has tables at every sample time from 3 s on (first links at 2.3-2.5 s,
+    # docs/reference.md section 4)
+    times = rec.hops.groupby("run")["t"].unique()
+    assert all(set(t) == set(np.arange(3.0, 151.0)) for t in times)
+
+
+def test_fine_waypoint_20_is_the_waypoint_20_flight_every_0_1_s():
+    coarse = SCENARIOS["waypoint_20"].positions()
+    fine = SCENARIOS["waypoint_20_fine"].positions()
+    common = fine[np.isin(fine["t"], coarse["t"].unique())].reset_index(drop=True)
+    assert len(common) == len(coarse) and fine["t"].nunique() == 1501
+    np.testing.assert_allclose(common[["x", "y"]], coarse[["x", "y"]], atol=0.05)  # 0.1 m
+
+
+@pytest.mark.parametrize(("name", "n", "side"), [("fast_20", 20, 1000.0), ("fast_40", 40, 1415.0)])
+def test_fast_waypoints_fly_15_to_30_m_s_in_their_square(name, n, side):
+    frame = SCENARIOS[name].positions()
+    xy = frame[["x", "y"]].to_numpy().reshape(-1, n, 2)
+    assert xy.min() >= 0 and xy.max() <= side
+    speed = np.linalg.norm(np.diff(xy, axis=0), axis=2) / 0.1
+    assert speed.max() <= 30.0 + 1.5  # 0.1 m rounding of the positions over 0.1 s
+    moving = speed[speed > 1.0]
+    assert np.quantile(moving, 0.05) > 14.0
 
 
 @settings(max_examples=25, deadline=None)
@@ -54,7 +87,9 @@ def test_static_layout_holds_still_and_is_seeded():
     np.testing.assert_array_equal(first[["x", "y"]].to_numpy(), last[["x", "y"]].to_numpy())
 
 
-def test_bad_run_number_is_a_usage_error():
+@pytest.mark.parametrize("runs", [["0"], ["1", "-2"]])
+def test_bad_run_number_is_a_usage_error(runs, capsys):
     with pytest.raises(SystemExit) as exc:
-        main(["--out", "unused", "--run", "0"])
+        main(["--out", "unused", "--run", *runs])
     assert exc.value.code == 2
+    assert "--run must be >= 1" in capsys.readouterr().err

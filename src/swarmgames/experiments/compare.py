@@ -48,7 +48,39 @@ from swarmgames.network.trace import PositionTrace, read_positions
 from swarmgames.rng import as_generator
 from swarmgames.sim.providers import provider_from_config
 
-__all__ = ["CompareResult", "compare"]
+__all__ = ["HOP_ROWS", "CompareResult", "compare", "counts_by_hops"]
+
+#: Rows of the per-hop-count breakdown: routes of 1, 2, 3, 4 and 5 or more hops, then all.
+HOP_ROWS = ("1", "2", "3", "4", "5+", "all")
+
+
+def counts_by_hops(hops_a: np.ndarray, hops_b: np.ndarray, count: np.ndarray) -> np.ndarray:
+    """Per-hop-count counts of a confusion matrix between two tables.
+
+    Parameters
+    ----------
+    hops_a, hops_b, count : ndarray of int, shape (K,)
+        ``count[k]`` entries have ``hops_a[k]`` hops in table a and ``hops_b[k]`` in table b
+        (0: no route).
+
+    Returns
+    -------
+    ndarray of int64, shape (6, 4)
+        Per row of :data:`HOP_ROWS`: routes in a, routes in b, entries (routed by either with
+        that hop count) and entries on which both agree (same hop count, so ``a = 3, b = 4``
+        counts against rows 3 and 4, and ``a = 5, b = 6`` against row 5+).
+    """
+    a, b = np.asarray(hops_a), np.asarray(hops_b)
+    w = np.asarray(count, dtype=np.int64)
+    ca, cb, same = np.minimum(a, 5), np.minimum(b, 5), a == b
+    out = np.zeros((len(HOP_ROWS), 4), dtype=np.int64)
+    for row, c in enumerate(range(1, 6)):
+        in_a, in_b = ca == c, cb == c
+        either = in_a | in_b
+        out[row] = w[in_a].sum(), w[in_b].sum(), w[either].sum(), w[either & same].sum()
+    either = (a > 0) | (b > 0)
+    out[-1] = w[a > 0].sum(), w[b > 0].sum(), w[either].sum(), w[either & same].sum()
+    return out
 
 
 def _check_name(name: str) -> None:
@@ -114,6 +146,31 @@ class CompareResult:
         total = int(rows[e].sum())
         return float(rows[a].sum() / total) if total else 1.0
 
+    def by_hops(self, backend: str | None = None) -> pd.DataFrame:
+        """Agreement of ``backend`` (default: the second) with the reference per hop count,
+        pooled over the overall samples.
+
+        Returns
+        -------
+        DataFrame
+            One row per :data:`HOP_ROWS` entry: ``hops``, ``routes_reference`` and
+            ``routes_backend`` (routes of that length in each table), ``entries`` (in either),
+            ``agree`` and ``agreement`` (``agree / entries``; 1 where there are none).
+        """
+        backend = self.backends[1] if backend is None else backend
+        c = self.confusion[self.confusion["backend"] == backend]
+        counts = counts_by_hops(
+            c["hops_reference"].to_numpy(), c["hops_backend"].to_numpy(), c["count"].to_numpy()
+        )
+        frame = pd.DataFrame(
+            counts, columns=["routes_reference", "routes_backend", "entries", "agree"]
+        )
+        frame.insert(0, "hops", HOP_ROWS)
+        frame["agreement"] = np.where(
+            frame["entries"] > 0, frame["agree"] / frame["entries"].clip(lower=1), 1.0
+        )
+        return frame
+
     def _kept(self) -> pd.Series:
         return self.per_time["t"] >= self.start_time + self.warmup_s - 1e-9
 
@@ -135,6 +192,15 @@ class CompareResult:
                     "within_2_hops": self.agreement(b, within_2_hops=True),
                     "entries": int(self.per_time.loc[self._is(b), "entries"].sum()),
                     "entries_2hop": int(self.per_time.loc[self._is(b), "entries_2hop"].sum()),
+                    "by_hops": {
+                        r.hops: {
+                            "agreement": float(r.agreement),
+                            "entries": int(r.entries),
+                            "routes_reference": int(r.routes_reference),
+                            "routes_backend": int(r.routes_backend),
+                        }
+                        for r in self.by_hops(b).itertuples()
+                    },
                 }
                 for b in self.backends[1:]
             },

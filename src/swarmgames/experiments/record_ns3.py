@@ -15,11 +15,20 @@ its run number, recorded in ``meta.json``):
 * ``hex_expand``: 7 UAVs, a centre and a ring of 6 whose radius holds at 100 m for 10 s, grows
   at 5 m/s to 500 m, shrinks back to 100 m and holds (180 s); positions every 0.1 s, tables
   every 0.5 s (docs/reference.md section 4).
+* ``waypoint_20_fine``: the flight of ``waypoint_20`` with positions every 0.1 s (to 0.1 m),
+  tables every 1 s, ten ns-3 runs (run numbers 1-10), stored like the ``fast_*`` folders.
+* ``fast_20``, ``fast_30``, ``fast_40``: 20, 30 and 40 UAVs flying random waypoints at
+  15-30 m/s (pauses 0-2 s) for 150 s over squares of 1000, 1225 and 1415 m (the density of
+  ``waypoint_20``, routes of up to 6-7 hops); positions every 0.1 s (to 0.1 m),
+  tables every 1 s, ten ns-3 runs each (run numbers 1-10). These folders hold xz-compressed
+  ``positions.csv.xz`` and ``hops.csv.xz``, the latter with a leading ``run`` column; they
+  measure the built-in OLSR model against ns-3's run-to-run spread (docs/ns3.md).
 
 Usage::
 
     python -m swarmgames.experiments.record_ns3 --out tests/data/ns3/
     python -m swarmgames.experiments.record_ns3 --out DIR --only waypoint_20 --run 2
+    python -m swarmgames.experiments.record_ns3 --out DIR --only fast_20 --run 1 2 3
 
 References
 ----------
@@ -35,6 +44,7 @@ import json
 import sys
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -43,18 +53,30 @@ import pandas as pd
 from swarmgames.experiments.replay import replay
 from swarmgames.network.trace import PositionTrace
 
-__all__ = ["SCENARIOS", "hex_expand", "main", "random_waypoint", "record", "static_layout"]
+__all__ = [
+    "SCENARIOS",
+    "Scenario",
+    "hex_expand",
+    "main",
+    "random_waypoint",
+    "record",
+    "static_layout",
+]
+
+#: Compression of the ``.csv.xz`` files. LZMA's large dictionary finds the repetition between
+#: consecutive tables (about 5 times smaller than gzip here), and its output has no time stamp.
+_XZ = {"method": "xz", "preset": 9}
 
 
-def _frame(times: np.ndarray, pos: np.ndarray) -> pd.DataFrame:
+def _frame(times: np.ndarray, pos: np.ndarray, decimals: int = 4) -> pd.DataFrame:
     t_count, n = pos.shape[:2]
     return pd.DataFrame(
         {
             "t": np.repeat(np.round(times, 6), n),
             "node": np.tile(np.arange(n), t_count),
-            "x": np.round(pos[..., 0].ravel(), 4),
-            "y": np.round(pos[..., 1].ravel(), 4),
-            "z": np.round(pos[..., 2].ravel(), 4),
+            "x": np.round(pos[..., 0].ravel(), decimals),
+            "y": np.round(pos[..., 1].ravel(), decimals),
+            "z": np.round(pos[..., 2].ravel(), decimals),
         }
     )
 
@@ -75,11 +97,13 @@ def random_waypoint(
     seed: int,
     speed_m_s: tuple[float, float] = (5.0, 15.0),
     pause_s: tuple[float, float] = (0.0, 2.0),
+    decimals: int = 4,
 ) -> pd.DataFrame:
     """Random-waypoint flight of ``n`` UAVs in a ``side_m`` square, sampled every ``dt`` s.
 
     Each UAV flies straight to a uniform random waypoint at a uniform random speed, pauses for a
-    uniform random time, and repeats (Camp et al. 2002).
+    uniform random time, and repeats (Camp et al. 2002). Positions are rounded to ``decimals``
+    decimal places of a metre.
     """
     rng = np.random.default_rng(seed)
     times = np.round(np.arange(0.0, duration_s + dt / 2, dt), 9)
@@ -97,7 +121,7 @@ def random_waypoint(
         kt, kxy = np.array(knots_t), np.array(knots_xy)
         pos[:, i, 0] = np.interp(times, kt, kxy[:, 0])
         pos[:, i, 1] = np.interp(times, kt, kxy[:, 1])
-    return _frame(times, pos)
+    return _frame(times, pos, decimals)
 
 
 def hex_expand(duration_s: float = 180.0, dt: float = 0.1) -> pd.DataFrame:
@@ -112,40 +136,88 @@ def hex_expand(duration_s: float = 180.0, dt: float = 0.1) -> pd.DataFrame:
     return _frame(times, pos)
 
 
-#: name -> (positions factory, sampling period of the tables in seconds)
-SCENARIOS: dict[str, tuple[Callable[[], pd.DataFrame], float]] = {
-    "static_7": (lambda: static_layout(7, 800.0, 40.0, seed=7), 5.0),
-    "static_20": (lambda: static_layout(20, 1200.0, 40.0, seed=20), 5.0),
-    "static_50": (lambda: static_layout(50, 1800.0, 40.0, seed=50), 5.0),
-    "waypoint_20": (lambda: random_waypoint(20, 1000.0, 150.0, 0.5, seed=2005), 1.0),
-    "hex_expand": (lambda: hex_expand(180.0, 0.1), 0.5),
+@dataclass(frozen=True)
+class Scenario:
+    """A recording scenario.
+
+    Attributes
+    ----------
+    positions : callable
+        Returns the ``t,node,x,y,z`` frame of the trace (seeded: the same frame every call).
+    sample : float
+        Sampling period of the tables, seconds.
+    runs : tuple of int, default (1,)
+        ns-3 run numbers recorded by default. With more than one, ``hops`` gets a leading
+        ``run`` column.
+    compressed : bool, default False
+        Write xz-compressed ``positions.csv.xz`` and ``hops.csv.xz`` instead of plain CSV.
+    """
+
+    positions: Callable[[], pd.DataFrame]
+    sample: float
+    runs: tuple[int, ...] = (1,)
+    compressed: bool = False
+
+
+def _fast(n: int, side_m: float, seed: int) -> Scenario:
+    def positions() -> pd.DataFrame:
+        return random_waypoint(n, side_m, 150.0, 0.1, seed, (15.0, 30.0), (0.0, 2.0), decimals=1)
+
+    return Scenario(positions, 1.0, runs=tuple(range(1, 11)), compressed=True)
+
+
+def _fine_waypoint_20() -> pd.DataFrame:
+    # The waypoint_20 flight (its seed draws the same legs) sampled every 0.1 s.
+    return random_waypoint(20, 1000.0, 150.0, 0.1, seed=2005, decimals=1)
+
+
+SCENARIOS: dict[str, Scenario] = {
+    "static_7": Scenario(lambda: static_layout(7, 800.0, 40.0, seed=7), 5.0),
+    "static_20": Scenario(lambda: static_layout(20, 1200.0, 40.0, seed=20), 5.0),
+    "static_50": Scenario(lambda: static_layout(50, 1800.0, 40.0, seed=50), 5.0),
+    "waypoint_20": Scenario(lambda: random_waypoint(20, 1000.0, 150.0, 0.5, seed=2005), 1.0),
+    "hex_expand": Scenario(lambda: hex_expand(180.0, 0.1), 0.5),
+    "waypoint_20_fine": Scenario(_fine_waypoint_20, 1.0, runs=tuple(range(1, 11)), compressed=True),
+    "fast_20": _fast(20, 1000.0, seed=3020),
+    "fast_30": _fast(30, 1225.0, seed=3030),
+    "fast_40": _fast(40, 1415.0, seed=3040),
 }
 
 
-def record(name: str, out: Path, run: int = 1) -> Path:
-    """Record scenario ``name`` with ns-3 run number ``run`` into ``out/name``."""
+def record(name: str, out: Path, run: int | tuple[int, ...] | None = None) -> Path:
+    """Record scenario ``name`` with ns-3 run number(s) ``run`` into ``out/name``.
+
+    ``run`` defaults to the scenario's :attr:`Scenario.runs`. Several runs are replayed one
+    after the other in this process (ns-3's streams are fixed per run, so the result does not
+    depend on the order) and stored in one ``hops`` table with a leading ``run`` column.
+    """
     from swarmgames.network.ns3_backend import Ns3Provider
 
-    factory, sample = SCENARIOS[name]
-    positions = factory()
+    scenario = SCENARIOS[name]
+    runs = scenario.runs if run is None else (run,) if isinstance(run, int) else tuple(run)
+    positions = scenario.positions()
     trace = PositionTrace.from_frame(positions)
-    provider = Ns3Provider(n_robots=trace.n_robots, run=run)
     start = time.perf_counter()
-    hops = replay(trace, provider, sample).hops
+    tables = []
+    for k in runs:
+        with Ns3Provider(n_robots=trace.n_robots, run=k) as provider:
+            hops = replay(trace, provider, scenario.sample).hops
+        tables.append(hops.assign(run=k)[["run", *hops.columns]] if len(runs) > 1 else hops)
     wall = time.perf_counter() - start
-    provider.close()
     folder = out / name
     folder.mkdir(parents=True, exist_ok=True)
-    positions.to_csv(folder / "positions.csv", index=False)
-    hops.to_csv(folder / "hops.csv", index=False)
+    ext, compression = (".csv.xz", _XZ) if scenario.compressed else (".csv", None)
+    positions.to_csv(folder / f"positions{ext}", index=False, compression=compression)
+    hops = pd.concat(tables, ignore_index=True)
+    hops.to_csv(folder / f"hops{ext}", index=False, compression=compression)
     from importlib.metadata import version
 
     meta = {
         "kind": name,
         "t_end": float(trace.times[-1]),
-        "dt": float(np.min(np.diff(trace.times))),
-        "sample": sample,
-        "run": run,
+        "dt": round(float(np.min(np.diff(trace.times))), 9),
+        "sample": scenario.sample,
+        **({"run": runs[0]} if len(runs) == 1 else {"runs": list(runs)}),
         "ns3": version("ns3"),
         "standard": "802.11a",
         "rate": "OfdmRate6Mbps",
@@ -156,7 +228,7 @@ def record(name: str, out: Path, run: int = 1) -> Path:
         "olsr": "ns-3 defaults",
         "ns3_wall_s": round(wall, 2),
         "command": f"python -m swarmgames.experiments.record_ns3 --out {out} --only {name} "
-        f"--run {run}",
+        f"--run {' '.join(map(str, runs))}",
     }
     (folder / "meta.json").write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")
     return folder
@@ -171,12 +243,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--only", nargs="+", choices=sorted(SCENARIOS), help="record only these scenarios"
     )
-    parser.add_argument("--run", type=int, default=1, help="ns-3 run number (default 1)")
+    parser.add_argument(
+        "--run",
+        type=int,
+        nargs="+",
+        help="ns-3 run number(s) (default: the scenario's, 1 or 1-10 for the fast_* scenarios)",
+    )
     args = parser.parse_args(argv)
-    if args.run < 1:
-        parser.error(f"--run must be >= 1 (got {args.run})")
+    bad = [k for k in args.run or () if k < 1]
+    if bad:
+        parser.error(f"--run must be >= 1 (got {bad[0]})")
     for name in args.only or list(SCENARIOS):
-        folder = record(name, args.out, args.run)
+        folder = record(name, args.out, None if args.run is None else tuple(args.run))
         print(f"recorded {name} -> {folder}", file=sys.stderr)
     return 0
 

@@ -118,6 +118,32 @@ def check_ns3_config(olsr: OlsrParameters) -> None:
         raise ConfigError(msg, problems)
 
 
+def _assign_streams(wifi, devices, channel, stack, olsr_helper, nodes) -> int:
+    """Give every random variable of the scenario a fixed ns-3 stream number, from 0 up.
+
+    Without this, ns-3 numbers the streams of its random variables in the order they are
+    created, from a counter that ``Simulator::Destroy`` does not reset: the second scenario of
+    a process then draws other OLSR jitter (and fading) than the first, even with the same run
+    number. Streams are assigned in this order, which a plain ns-3 program must follow to
+    reproduce a run: Wi-Fi devices (``WifiHelper::AssignStreams``: PHY, MAC back-off, station
+    manager), the channel's loss chain (``YansWifiChannel::AssignStreams``: Nakagami fading),
+    the IP stacks (``InternetStackHelper::AssignStreams``: ARP jitter) and OLSR
+    (``OlsrHelper::AssignStreams``: HELLO, TC and forwarding jitter, ``JITTER`` in
+    ``olsr-routing-protocol.cc``).
+
+    Returns the number of streams used.
+
+    References
+    ----------
+    .. [1] ns-3 3.44 manual, "Random Variables": "Setting the stream number" and
+       ``AssignStreams``.
+    """
+    stream = wifi.AssignStreams(devices, 0)
+    stream += channel.AssignStreams(stream)
+    stream += stack.AssignStreams(nodes, stream)
+    return stream + olsr_helper.AssignStreams(nodes, stream)
+
+
 class Ns3Provider:
     """Neighbourhoods from ns-3's OLSR routing tables (a :class:`NeighbourhoodProvider`).
 
@@ -135,7 +161,9 @@ class Ns3Provider:
         is drawn once, at construction. Equal seeds give equal runs.
     run : int, optional
         Use this ns-3 run number (``RngSeedManager.SetRun``, with seed 1) at every ``reset``
-        instead of drawing one: reproduces a run recorded with plain ns-3.
+        instead of drawing one. Every random variable gets a fixed stream number (see
+        :func:`_assign_streams`), so a run is the same in every scenario of a process and
+        in a plain ns-3 program that assigns its streams in the same order.
     shadowing_key : int, optional
         Key of the static per-pair shadowing field (see
         :func:`~swarmgames.network.propagation.pair_gaussians`); providers given the same key
@@ -355,7 +383,8 @@ class Ns3Provider:
             "ns3::ConstantRateWifiManager", "DataMode", rate, "ControlMode", rate
         )
         phy = ns.YansWifiPhyHelper()
-        phy.SetChannel(self._channel(radio))
+        channel = self._channel(radio)
+        phy.SetChannel(channel)
         power = ns.DoubleValue(radio.tx_power_dbm)
         phy.Set("TxPowerStart", power)
         phy.Set("TxPowerEnd", power)
@@ -379,6 +408,7 @@ class Ns3Provider:
         ipv4.SetBase(ns.Ipv4Address("10.0.0.0"), ns.Ipv4Mask("255.0.0.0"))
         interfaces = ipv4.Assign(devices)
         self._routing = [nodes.Get(i).GetObject[ns.olsr.RoutingProtocol]() for i in range(n)]
+        _assign_streams(wifi, devices, channel, stack, helper, nodes)
 
         addr = np.array([interfaces.GetAddress(i).Get() for i in range(n)], dtype=np.int64)
         self._order = np.argsort(addr).astype(np.int32)

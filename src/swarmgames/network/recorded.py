@@ -3,9 +3,11 @@
 A recording is a folder holding ``positions.csv`` (``t,node,x,y,z``; a node's row holds from
 ``t`` until its next row), ``hops.csv`` (``t,node,dest,hops``; reachable destinations only,
 one block of rows per sample time) and ``meta.json`` (at least ``sample``, the sampling period
-in seconds). :class:`RecordedProvider` serves the recorded tables through the
-:class:`~swarmgames.network.provider.NeighbourhoodProvider` interface, so that a recorded ns-3
-run can be compared with a live backend on a machine without ns-3.
+in seconds). Either CSV file may be compressed instead, with xz (``hops.csv.xz``) or gzip
+(``hops.csv.gz``). A recording of several ns-3 runs of one trace has a leading ``run`` column
+in ``hops`` (the ns-3 run number of each row). :class:`RecordedProvider` serves the recorded
+tables through the :class:`~swarmgames.network.provider.NeighbourhoodProvider` interface, so
+that a recorded ns-3 run can be compared with a live backend on a machine without ns-3.
 
 References
 ----------
@@ -147,12 +149,39 @@ class Recording:
     hops : DataFrame
         ``t, node, dest, hops`` rows of the recorded tables.
     meta : dict
-        Contents of ``meta.json`` (``sample``: sampling period, s; ``run``: ns-3 run number...).
+        Contents of ``meta.json`` (``sample``: sampling period, s; ``run``: ns-3 run number, or
+        ``runs``: the run numbers of a recording of several runs...).
     """
 
     positions: pd.DataFrame
     hops: pd.DataFrame
     meta: dict[str, Any]
+
+    @property
+    def runs(self) -> tuple[int, ...]:
+        """ns-3 run numbers held in ``hops``: its ``run`` column, else ``meta["run"]`` (or
+        ``()`` where the recording does not say)."""
+        if "run" in self.hops.columns:
+            return tuple(int(k) for k in np.unique(self.hops["run"].to_numpy()))
+        return (int(self.meta["run"]),) if "run" in self.meta else ()
+
+    def run_hops(self, run: int | None = None) -> pd.DataFrame:
+        """The ``t, node, dest, hops`` rows of one run (``run`` may be left out when the
+        recording holds one run).
+
+        Raises
+        ------
+        ValueError
+            If ``run`` is missing for a recording of several runs, or is not one of them.
+        """
+        if "run" not in self.hops.columns:
+            if run is not None and run not in self.runs:
+                raise ValueError(f"run must be one of {list(self.runs)} (got {run})")
+            return self.hops
+        if run is None or run not in self.runs:
+            raise ValueError(f"run must be one of {list(self.runs)} (got {run})")
+        rows = self.hops[self.hops["run"].to_numpy() == run]
+        return rows.drop(columns="run").reset_index(drop=True)
 
     @property
     def n_robots(self) -> int:
@@ -164,21 +193,45 @@ class Recording:
         """Sampling period of ``hops``, seconds."""
         return float(self.meta["sample"])
 
-    def provider(self, name: str = "recorded") -> RecordedProvider:
-        """The recorded tables as a :class:`RecordedProvider`."""
-        return RecordedProvider(self.hops, self.n_robots, self.sample_every, name=name)
+    def provider(self, name: str = "recorded", run: int | None = None) -> RecordedProvider:
+        """The tables of run ``run`` (see :meth:`run_hops`) as a :class:`RecordedProvider`."""
+        return RecordedProvider(self.run_hops(run), self.n_robots, self.sample_every, name=name)
+
+
+#: File names a recording's CSV file may have, in the order they are looked for (pandas
+#: decompresses by the suffix).
+_SUFFIXES = (".csv", ".csv.xz", ".csv.gz")
+
+
+def _csv(folder: Path, stem: str) -> Path:
+    """The first of ``folder/stem.csv``, ``.csv.xz``, ``.csv.gz`` that exists (else the
+    first, for the error message)."""
+    found = [folder / f"{stem}{s}" for s in _SUFFIXES if (folder / f"{stem}{s}").is_file()]
+    return found[0] if found else folder / f"{stem}.csv"
 
 
 def read_recording(folder: str | Path) -> Recording:
-    """Read ``positions.csv``, ``hops.csv`` and ``meta.json`` from ``folder``.
+    """Read ``positions.csv``, ``hops.csv`` (either may be ``.csv.xz`` or ``.csv.gz``) and
+    ``meta.json`` from ``folder``.
 
     Raises
     ------
     InputDataError
         If a file is missing or ``meta.json`` has no ``sample`` period.
+
+    Examples
+    --------
+    >>> rec = read_recording("tests/data/ns3/fast_20")  # doctest: +SKIP
+    >>> rec.runs  # doctest: +SKIP
+    (1, 2, 3, 4, 5, 6, 7, 8, 9, 10)
+    >>> rec.provider("ns3 run 4", run=4)  # doctest: +SKIP
     """
     folder = Path(folder)
-    files = {name: folder / name for name in ("positions.csv", "hops.csv", "meta.json")}
+    files = {
+        "positions.csv": _csv(folder, "positions"),
+        "hops.csv": _csv(folder, "hops"),
+        "meta.json": folder / "meta.json",
+    }
     for name, path in files.items():
         if not path.is_file():
             raise InputDataError(f"recording {folder} has no {name}")

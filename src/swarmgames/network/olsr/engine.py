@@ -12,28 +12,44 @@ state and their receptions commute: a round is processed as one batch of sparse 
 
 * link set ``(r, j)``: ``L_ASYM_time``, ``L_SYM_time``, ``L_time`` and the time first heard;
 * 2-hop set ``(r, j, x)`` and MPR-selector set ``(r, j)``: expiry times;
-* topology set: for each ``(r, last)`` the TC round last received from ``last`` and its expiry
-  (the tuples ``(dest, last)`` are that TC's advertised set, stored once per round).
+* topology set: for each ``(r, last)`` the TC round last received from ``last``, its ANSN and
+  its expiry (the tuples ``(dest, last)`` are that TC's advertised set, stored once per round),
+  plus the *lingering* tuples ``(r, last, dest)`` that an earlier TC of the same ANSN listed
+  and the latest no longer does, each with its own expiry (RFC 9.5; see below).
 
 Link sensing (RFC 7.1.1): a HELLO from ``j`` sets ``L_ASYM_time = t + V``; if it lists ``r`` as
 a symmetric or asymmetric link, ``L_SYM_time = t + V`` and ``L_time = L_SYM_time + V``; listed as
-lost, ``L_SYM_time = t - 1``. ``V`` is the neighbour hold time (6 s).
+lost, ``L_SYM_time = t - 1``. ``V`` is the neighbour hold time (6 s). A link tuple is gone once
+``L_time`` passes (ns-3 ``LinkTupleTimerExpire``): the next HELLO from ``j`` creates a new one.
 
 Routing tables are recomputed, as in ns-3, only when a node receives an OLSR packet or loses a
 symmetric neighbour, not when a tuple expires. Node ``r``'s table at time ``t`` is therefore the
 RFC section 10 computation on its tuples still valid at ``c_r`` = the later of its last packet
 reception and its last symmetric-link expiry before ``t``; it is evaluated lazily when a
-snapshot is read.
+snapshot is read. A 2-hop or topology tuple is therefore kept until it expired before its
+owner's ``c_r``, not merely before ``t``.
 
-TC flooding (RFC 3.4, 9): each TC is flooded wave by wave through the link graph in force when
-it is built; a node accepts a copy only from a symmetric neighbour, processes only the first
-copy, and retransmits (after a new jitter) when the copy came from one of its MPR selectors. The
-arrival times are then queued and applied when the clock passes them.
+Topology set, as ns-3 ``ProcessTc`` keeps it (RFC 9.5): a TC with a newer ANSN than the
+tuples ``r`` holds from its originator replaces them; one with the same ANSN refreshes the
+tuples it lists and leaves the others until their own expiry. ns-3 increments a node's ANSN
+when it gains a neighbour tuple (a new link tuple) or an MPR selector, and when a selector
+tuple expires on its own timer, but not when ``NeighborLoss`` erases a selector whose link
+lapsed: the TCs after such a loss keep the ANSN, and the lost neighbour stays in the
+receivers' topology sets for up to the topology hold time.
 
-Approximations, documented in ``docs/network.md``: TC floods use the link state and positions
-at the time the TC is built; a flood's wave order stands in for exact time order between waves;
-MPR sets are recomputed when HELLOs are built rather than after every reception; HELLO and TC
-messages are not aggregated into one packet.
+TC flooding (RFC 3.4, 9): each copy is sent when its jitter has elapsed and reaches the nodes
+linked to its sender then; a node accepts a copy only from a neighbour it has a symmetric link
+to at that moment, processes only the first copy, and retransmits (after a new jitter) when the
+sender is one of its MPR selectors at that moment (ns-3 ``ProcessTc`` and ``ForwardDefault``
+check both on arrival). The HELLOs of a round are on the air while the TCs built at the same
+instant are flooded; the MPR selectors they add relay those TCs. (Taking the link and selector
+state of the instant a TC was built instead cut nodes off for whole rounds in fast swarms.)
+
+Approximations, documented in ``docs/network.md``: the copies due within one ``run_until`` step
+are processed wave by wave (the earliest copy of a wave counts) with the link and selector state
+at the end of the step; MPR sets are recomputed when HELLOs are built rather than after every
+reception; HELLO and TC messages are not aggregated into one packet; every frame in range
+arrives (ns-3 loses about 2 % of them to collisions in a 40-UAV swarm, ``docs/ns3.md``).
 
 Control traffic: every HELLO and every TC a node originates or forwards is counted, with its
 size in bytes (:mod:`.wire`), when it is sent (its jitter elapsed);
@@ -109,7 +125,12 @@ class OlsrEngine:
         self.links = KeyedTable(("asym", "sym", "ltime", "created"))
         self.two_hop = KeyedTable(("expiry",))
         self.selectors = KeyedTable(("expiry",))
-        self.topology = KeyedTable(("expiry", "round"))
+        self.topology = KeyedTable(("expiry", "round", "ansn"))
+        # Topology tuples (r, last, dest) that r keeps from an earlier TC of the same ANSN
+        # although the latest TC of ``last`` it received no longer lists ``dest``.
+        self.lingering = KeyedTable(("expiry",))
+        # Advertised neighbour sequence number of each node (ns-3 IncrementAnsn).
+        self.ansn = np.zeros(n, dtype=np.int64)
         self.last_rx = np.full(n, -np.inf)
         # Latest symmetric-link lapse of each node among link tuples already removed.
         self._lapsed = np.full(n, -np.inf)
@@ -121,21 +142,17 @@ class OlsrEngine:
         self._hello_neigh = np.zeros(0, dtype=np.int8)
         self._hello_send = np.full(n, np.inf)
         self._hello_bytes = np.zeros(n, dtype=np.int64)  # size of each node's HELLO this round
-        # Queued TC deliveries (receiver, originator, time, round) and heard packets.
-        self._tc_rounds: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        # TC rounds: content (sorted keys originator*N+selector), row pointers, ANSN of each node.
+        self._tc_rounds: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         self._tc_round_id = 0
         self._last_tc: int | None = None  # round id of the latest TC round, if any TC was sent
-        self._q_r = np.zeros(0, dtype=np.int64)
-        self._q_o = np.zeros(0, dtype=np.int64)
-        self._q_t = np.zeros(0)
-        self._q_round = np.zeros(0, dtype=np.int64)
-        self._heard_r = np.zeros(0, dtype=np.int64)
-        self._heard_t = np.zeros(0)
-        # Queued TC transmissions (sender, send time, bytes, forwarded?) and the counters.
-        self._tx_node = np.zeros(0, dtype=np.int64)
-        self._tx_t = np.zeros(0)
-        self._tx_bytes = np.zeros(0, dtype=np.int64)
-        self._tx_fwd = np.zeros(0, dtype=bool)
+        # Floods under way: pending transmissions (originator, sender, send time, round) and,
+        # per round, the (originator, node) pairs that processed their copy (duplicate set).
+        self._fl_msg = np.zeros(0, dtype=np.int64)
+        self._fl_node = np.zeros(0, dtype=np.int64)
+        self._fl_t = np.zeros(0)
+        self._fl_round = np.zeros(0, dtype=np.int64)
+        self._reached: dict[int, KeySet] = {}
         self._traffic_since = float(start_time)
         self._traffic = self._zero_traffic()
 
@@ -160,13 +177,14 @@ class OlsrEngine:
             if build > to_time:
                 break
             self._deliver_until(build, graph)
+            # Before building: a TC carries the ANSN after the selector expiries up to now.
+            self._prune(build)
             if self.next_hello == build:
                 self._build_hellos(build)
                 self.next_hello = build + self.cfg.hello_interval_s
             if not self.hello_only and self.next_tc == build:
-                self._build_tc(build, graph)
+                self._build_tc(build)
                 self.next_tc = build + self.cfg.tc_interval_s
-            self._prune(build)
         self._deliver_until(to_time, graph)
         self.time = float(to_time)
 
@@ -181,27 +199,65 @@ class OlsrEngine:
             self._traffic["hello_bytes"][due] += self._hello_bytes[due]
             self._receive_hellos(due, graph)
             self._hello_send[due] = np.inf
-        if self._q_t.size:
-            now = self._q_t <= t
-            if now.any():
-                self._receive_tcs(
-                    self._q_r[now], self._q_o[now], self._q_t[now], self._q_round[now]
-                )
-                keep = ~now
-                self._q_r, self._q_o = self._q_r[keep], self._q_o[keep]
-                self._q_t, self._q_round = self._q_t[keep], self._q_round[keep]
-        if self._heard_t.size:
-            now = self._heard_t <= t
-            if now.any():
-                np.maximum.at(self.last_rx, self._heard_r[now], self._heard_t[now])
-                self._heard_r, self._heard_t = self._heard_r[~now], self._heard_t[~now]
-        if self._tx_t.size:
-            now = self._tx_t <= t
-            if now.any():
-                self._count_tcs(self._tx_node[now], self._tx_bytes[now], self._tx_fwd[now])
-                keep = ~now
-                self._tx_node, self._tx_t = self._tx_node[keep], self._tx_t[keep]
-                self._tx_bytes, self._tx_fwd = self._tx_bytes[keep], self._tx_fwd[keep]
+        self._flood(t, graph)
+
+    def _flood(self, t: float, graph: LinkGraph) -> None:
+        """Send every TC copy due by ``t`` and process its receptions (RFC 3626 3.4.1, ns-3
+        ``RecvOlsr``, ``ProcessTc`` and ``ForwardDefault``), wave after wave until none is due.
+
+        A node accepts a copy only from a neighbour it has a symmetric link to when the copy
+        arrives, processes only the first copy of each message (the earliest of a wave), and
+        retransmits it after a new jitter when the sender is one of its MPR selectors at that
+        moment. Link and selector state are those after every HELLO received by ``t``: the HELLOs
+        of a round go out while the TCs built at the same instant are flooded, and the MPR
+        selectors they add forward those TCs, as in ns-3.
+        """
+        if not (self._fl_t <= t).any():
+            return
+        n = self._nn
+        size = int(n * n)
+        got = []  # receptions (node, originator, time, round); applied together at the end
+        sym_time = self.links.getter("sym", size)
+        selector_expiry = self.selectors.getter("expiry", size)
+        while True:
+            now = self._fl_t <= t
+            if not now.any():
+                break
+            msg, fwd, ts, rd = (
+                a[now] for a in (self._fl_msg, self._fl_node, self._fl_t, self._fl_round)
+            )
+            self._fl_msg, self._fl_node = self._fl_msg[~now], self._fl_node[~now]
+            self._fl_t, self._fl_round = self._fl_t[~now], self._fl_round[~now]
+            pos, idx = csr_gather(graph.indptr, fwd)
+            r = graph.indices[pos].astype(np.int64)
+            m, f, tt, rid = msg[idx], fwd[idx], ts[idx], rd[idx]
+            np.maximum.at(self.last_rx, r, tt)  # every packet heard recomputes the table
+            ok = (r != m) & (sym_time(r * n + f) >= tt)
+            sent = []
+            for k in np.unique(rd):
+                ptr = self._tc_rounds[int(k)][1]
+                this = rd == k
+                sent.append((fwd[this], wire.tc_size(np.diff(ptr))[msg[this]], msg[this]))
+                at = np.flatnonzero(ok & (rid == k))
+                mk = m[at] * n + r[at]
+                fresh = ~self._reached[int(k)].contains(mk)
+                at, mk = at[fresh], mk[fresh]
+                if not at.size:
+                    continue
+                at = at[first_per_key(mk, size, np.argsort(tt[at], kind="stable"))]
+                self._reached[int(k)].add(m[at] * n + r[at])
+                got.append((r[at], m[at], tt[at], np.full(at.size, k)))
+                relay = at[selector_expiry(r[at] * n + f[at]) >= tt[at]]
+                self._fl_msg = np.concatenate([self._fl_msg, m[relay]])
+                self._fl_node = np.concatenate([self._fl_node, r[relay]])
+                self._fl_t = np.concatenate([self._fl_t, tt[relay] + self._jitter(relay.size)])
+                self._fl_round = np.concatenate([self._fl_round, np.full(relay.size, k)])
+            node, nbytes, orig = (np.concatenate(x) for x in zip(*sent, strict=True))
+            self._count_tcs(node, nbytes, node != orig)
+        if got:
+            self._receive_tcs(*(np.concatenate(x) for x in zip(*got, strict=True)))
+        live = set(np.unique(self._fl_round).tolist())
+        self._reached = {k: v for k, v in self._reached.items() if k in live}
 
     def _count_tcs(self, node: np.ndarray, size: np.ndarray, forwarded: np.ndarray) -> None:
         tr, orig = self._traffic, ~forwarded
@@ -211,21 +267,49 @@ class OlsrEngine:
         np.add.at(tr["tc_forwarded_bytes"], node[forwarded], size[forwarded])
 
     def _prune(self, t: float) -> None:
+        """Drop the tuples that can no longer matter at ``t``.
+
+        Link and MPR-selector tuples go when they expire, as ns-3's timers remove them. A
+        selector tuple that expires on its own increments its node's ANSN
+        (``MprSelTupleTimerExpire`` -> ``RemoveMprSelectorTuple`` -> ``IncrementAnsn``); one
+        whose link lapses at the same instant (the same HELLO refreshed both) is erased first
+        by ``NeighborLoss`` (``EraseMprSelectorTuples``), which leaves the ANSN alone: the link
+        timer was scheduled earlier. Then :meth:`_forget`.
+        """
+        n = self._nn
+        gone = self.selectors.cols["expiry"] < t
+        if gone.any():
+            keys = self.selectors.keys[gone]
+            own_timer = self.selectors.cols["expiry"][gone] < self.links.get("sym", keys)
+            np.add.at(self.ansn, keys[own_timer] // n, 1)
+            self.selectors.keep(~gone)
         gone = self.links.cols["ltime"] < t
         if gone.any():
             # Keep their lapse instants: they are routing-table recomputations (ns-3
             # NeighborLoss) that the clock of :meth:`_clock` must not forget.
-            np.maximum.at(
-                self._lapsed, self.links.keys[gone] // self._nn, self.links.cols["sym"][gone]
-            )
+            np.maximum.at(self._lapsed, self.links.keys[gone] // n, self.links.cols["sym"][gone])
             self.links.keep(~gone)
-        for table in (self.two_hop, self.selectors, self.topology):
-            table.keep(table.cols["expiry"] >= t)
-        live = set(np.unique(self._q_round).tolist())
+        self._forget(t)
+        live = set(np.unique(self._fl_round).tolist())
         live |= set(np.unique(self.topology.cols["round"]).astype(int).tolist())
         if self._last_tc is not None:
             live.add(self._last_tc)
         self._tc_rounds = {k: v for k, v in self._tc_rounds.items() if k in live}
+
+    def _forget(self, t: float) -> None:
+        """Drop the 2-hop and topology tuples that expired before their owner's last
+        routing-table computation (:meth:`_clock` at ``t``): no table can use them again.
+
+        Only those: a tuple that expires later still gives its route until the owner
+        recomputes, since ns-3 removes an expired tuple (``Nb2hopTupleTimerExpire``,
+        ``TopologyTupleTimerExpire``) without recomputing the table. Memory only: the tables
+        are the same whether or not this runs.
+        """
+        n = self._nn
+        clock = self._clock(t)
+        self.two_hop.keep(self.two_hop.cols["expiry"] > clock[self.two_hop.keys // (n * n)])
+        for table, base in ((self.topology, n), (self.lingering, n * n)):
+            table.keep(table.cols["expiry"] > clock[table.keys // base])
 
     # ------------------------------------------------------------------ state views
     def _clock(self, t: float) -> np.ndarray:
@@ -330,7 +414,7 @@ class OlsrEngine:
         or ``None`` if it sent none (ns-3 sends no empty TC)."""
         if self._last_tc is None:
             return None
-        keys, ptr = self._tc_rounds[self._last_tc]
+        keys, ptr, _ = self._tc_rounds[self._last_tc]
         sel = keys[ptr[node] : ptr[node + 1]] % self._nn
         return sel.astype(int).tolist() if sel.size else None
 
@@ -371,7 +455,11 @@ class OlsrEngine:
         ntype[found] = self._hello_neigh[hi[found]]
         # Link sensing, RFC 7.1.1.
         lkey = r * n + j
-        _, lfound = self.links.find(lkey)
+        # ns-3 removes a link tuple once its L_time passes (LinkTupleTimerExpire): a HELLO
+        # after that creates a new one, and with it a neighbour tuple (AddNeighborTuple),
+        # which increments the ANSN.
+        lfound = self.links.get("ltime", lkey) >= d
+        np.add.at(self.ansn, r[~lfound], 1)
         sym_t = np.where(lfound, self.links.get("sym", lkey), d - 1.0)
         ltime = np.where(lfound, self.links.get("ltime", lkey), d + V)
         created = np.where(lfound, self.links.get("created", lkey), d)
@@ -397,6 +485,9 @@ class OlsrEngine:
         # MPR-selector set, RFC 8.4.1.
         sel = ntype == _MPR_NEIGH
         if sel.any():
+            # A new selector tuple increments the ANSN (AddMprSelectorTuple).
+            new = self.selectors.get("expiry", lkey[sel]) < d[sel]
+            np.add.at(self.ansn, r[sel][new], 1)
             self.selectors.upsert(lkey[sel], expiry=d[sel] + V)
 
     @staticmethod
@@ -407,7 +498,7 @@ class OlsrEngine:
         return idx, found
 
     # ------------------------------------------------------------------ TC
-    def _build_tc(self, b: float, graph: LinkGraph) -> None:
+    def _build_tc(self, b: float) -> None:
         n = self._nn
         live = self.selectors.cols["expiry"] >= b
         sk = self.selectors.keys[live]
@@ -415,80 +506,80 @@ class OlsrEngine:
         if sk.size == 0:
             return
         # TC of o lists its MPR selectors: content keys o*N + selector.
-        origins = np.unique(sk // n)
+        origins = np.unique(sk // n).astype(np.int64)
         rid = self._tc_round_id
         self._tc_round_id += 1
         self._last_tc = rid
         ptr = np.searchsorted(sk, np.arange(self.n + 1) * n)
-        self._tc_rounds[rid] = (sk, ptr)
-        tc_bytes = wire.tc_size(np.diff(ptr))  # of each originator's TC, forwarded copies too
-        # Link and selector state as of the build time.
-        size = int(n * n)
-        sym_ok = KeySet(size)
-        sym_ok.add(self.links.keys[self.links.cols["sym"] >= b])
-        selector = KeySet(size)
-        selector.add(sk)
-        msg = origins.astype(np.int64)
-        fwd = origins.astype(np.int64)
-        t_send = b + self._jitter(origins.size)
+        self._tc_rounds[rid] = (sk, ptr, self.ansn.copy())
         reached = KeySet(int(n * n))
-        reached.add(msg * n + msg)
-        out_r, out_o, out_t = [], [], []
-        heard_r, heard_t = [], []
-        tx_node, tx_t, tx_msg = [], [], []
-        while msg.size:
-            # fwd transmits its copy of msg at t_send: the originator itself in the first wave.
-            tx_node.append(fwd)
-            tx_t.append(t_send)
-            tx_msg.append(msg)
-            pos, idx = csr_gather(graph.indptr, fwd)
-            r = graph.indices[pos].astype(np.int64)
-            m, f, t = msg[idx], fwd[idx], t_send[idx]
-            heard_r.append(r)
-            heard_t.append(t)
-            mk = m * n + r
-            ok = sym_ok.contains(r * n + f) & (r != m)
-            ok &= ~reached.contains(mk)
-            if not ok.any():
-                break
-            mk, r, f, t, m = mk[ok], r[ok], f[ok], t[ok], m[ok]
-            # Each node processes the earliest copy of each message in this wave.
-            sel = first_per_key(mk, size, np.argsort(t, kind="stable"))
-            mk, r, f, t, m = mk[sel], r[sel], f[sel], t[sel], m[sel]
-            reached.add(mk)
-            out_r.append(r)
-            out_o.append(m)
-            out_t.append(t)
-            # Retransmit when the copy came from an MPR selector of r.
-            relay = selector.contains(r * n + f)
-            msg, fwd = m[relay], r[relay]
-            t_send = t[relay] + self._jitter(int(relay.sum()))
-        if out_r:
-            self._q_r = np.concatenate([self._q_r, *out_r])
-            self._q_o = np.concatenate([self._q_o, *out_o])
-            self._q_t = np.concatenate([self._q_t, *out_t])
-            total = sum(a.size for a in out_r)
-            self._q_round = np.concatenate([self._q_round, np.full(total, rid)])
-        self._heard_r = np.concatenate([self._heard_r, *heard_r])
-        self._heard_t = np.concatenate([self._heard_t, *heard_t])
-        tx_node, tx_msg = np.concatenate(tx_node), np.concatenate(tx_msg)
-        self._tx_node = np.concatenate([self._tx_node, tx_node])
-        self._tx_t = np.concatenate([self._tx_t, *tx_t])
-        self._tx_bytes = np.concatenate([self._tx_bytes, tc_bytes[tx_msg]])
-        self._tx_fwd = np.concatenate([self._tx_fwd, tx_node != tx_msg])
+        reached.add(origins * n + origins)
+        self._reached[rid] = reached
+        # Each originator sends its TC after a jitter; :meth:`_flood` takes it from there.
+        self._fl_msg = np.concatenate([self._fl_msg, origins])
+        self._fl_node = np.concatenate([self._fl_node, origins])
+        self._fl_t = np.concatenate([self._fl_t, b + self._jitter(origins.size)])
+        self._fl_round = np.concatenate([self._fl_round, np.full(origins.size, rid)])
 
     def _receive_tcs(self, r: np.ndarray, o: np.ndarray, t: np.ndarray, rounds: np.ndarray):
+        """TC processing, RFC 3626 section 9.5 as ns-3 3.44 ``ProcessTc`` does it.
+
+        Receiver ``r`` of originator ``o``'s TC with sequence number ``ansn``: (2) ignores it if
+        it holds a tuple of ``o`` with a newer ANSN; (3) removes ``o``'s tuples with an older
+        ANSN; (4) refreshes or adds a tuple per advertised neighbour. Tuples of the same ANSN
+        that the TC no longer lists are therefore kept until their own expiry: they move to
+        :attr:`lingering` with the expiry of the TC that last listed them. Within one ANSN
+        the advertised set only shrinks (a selector is added, or expires on its own, only with
+        a new ANSN), so the lingering tuples are those of the previous TC that the new one
+        leaves out.
+        """
         n, hold = self._nn, self.cfg.topology_hold_s
         for rid in np.unique(rounds):
             sel = rounds == rid
             rr, oo, tt = r[sel], o[sel], t[sel]
-            # Replaces whatever r held from o (RFC 9.5: older ANSN tuples are removed).
-            self.topology.upsert(rr * n + oo, expiry=tt + hold, round=float(rid))
+            content, _, ansn = self._tc_rounds[int(rid)]
+            key, a = rr * n + oo, ansn[oo].astype(float)
+            idx, found = self.topology.find(key)
+            old_a = np.full(key.size, -np.inf)
+            old_a[found] = self.topology.cols["ansn"][idx[found]]
+            accept = ~(old_a > a)
+            key, oo, tt, a, old_a = key[accept], oo[accept], tt[accept], a[accept], old_a[accept]
+            same = old_a == a
+            # Step 3: a new ANSN erases the older tuples, lingering ones included.
+            if len(self.lingering):
+                erase = KeySet(int(n * n))
+                erase.add(key[~same])
+                self.lingering.keep(~erase.contains(self.lingering.keys // n))
+            if same.any():
+                self._linger(key[same], oo[same], content)
+            self.topology.upsert(key, expiry=tt + hold, round=float(rid), ansn=a)
+
+    def _linger(self, key: np.ndarray, o: np.ndarray, content: np.ndarray) -> None:
+        """For receptions ``key = r * N + o`` of a TC with the same ANSN as the one ``r``
+        holds: keep the previously advertised neighbours the new TC (``content``, sorted keys
+        ``o * N + dest``) leaves out, and drop the lingering tuples it lists again."""
+        n = self._nn
+        old_round = self.topology.get("round", key).astype(np.int64)
+        old_expiry = self.topology.get("expiry", key)
+        for rid in np.unique(old_round):
+            at = np.flatnonzero(old_round == rid)
+            prev, ptr, _ = self._tc_rounds[int(rid)]
+            pos, k = csr_gather(ptr, o[at])
+            dest = prev[pos] % n
+            left_out = ~sorted_contains(content, o[at][k] * n + dest)
+            keys = key[at][k][left_out] * n + dest[left_out]
+            self.lingering.upsert(keys, expiry=old_expiry[at][k][left_out])
+        lk = self.lingering.keys
+        relisted = sorted_contains(np.unique(key), lk // n) & sorted_contains(
+            content, (lk // n) % n * n + lk % n
+        )
+        if relisted.any():
+            self.lingering.keep(~relisted)
 
 
 class _RoundTopology:
-    """Topology tuples of every node, as the TC round each ``(r, last)`` holds (see
-    :func:`~.routing.compute_routes`)."""
+    """Topology tuples of every node, as the TC round each ``(r, last)`` holds plus the
+    lingering tuples (see :func:`~.routing.compute_routes`)."""
 
     def __init__(self, engine: OlsrEngine, clock: np.ndarray) -> None:
         n = engine._nn
@@ -498,6 +589,12 @@ class _RoundTopology:
         self.round = table.cols["round"][ok].astype(np.int64)
         self.rounds = engine._tc_rounds
         self.n = n
+        lk = engine.lingering.keys
+        ok = engine.lingering.cols["expiry"] > clock[lk // (n * n)]
+        self.linger_last = lk[ok] // n  # sorted owner * N + last
+        self.linger_dest = lk[ok] % n
+        self.lingers = KeySet(int(n * n))
+        self.lingers.add(self.linger_last)
         self.dense = None
         if n * n <= tables.DENSE_LIMIT:
             self.dense = np.full(int(n * n), -1, dtype=np.int32)
@@ -518,10 +615,18 @@ class _RoundTopology:
         src_all, dest_all = [], []
         for r in np.unique(rid):
             sel = hit[rid == r]
-            content, ptr = self.rounds[int(r)]
+            content, ptr, _ = self.rounds[int(r)]
             pos, k = csr_gather(ptr, keys[sel] % n)
             src_all.append(sel[k])
             dest_all.append(content[pos] % n)
+        if self.linger_last.size:
+            q = np.flatnonzero(self.lingers.contains(keys))
+            lo = np.searchsorted(self.linger_last, keys[q], "left")
+            hi = np.searchsorted(self.linger_last, keys[q], "right")
+            ptr = np.concatenate([[0], np.cumsum(hi - lo)])
+            pos, k = csr_gather(ptr, np.arange(q.size))
+            src_all.append(q[k])
+            dest_all.append(self.linger_dest[lo[k] + pos - ptr[k]])
         if not src_all:
             e = np.zeros(0, dtype=np.int64)
             return e, e

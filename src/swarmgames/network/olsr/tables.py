@@ -54,6 +54,16 @@ class KeyedTable:
         out[found] = self.cols[column][idx[found]]
         return out
 
+    def getter(self, column: str, size: int):
+        """A function ``keys -> values of column`` (``-inf`` where absent) for many look-ups
+        on an unchanging table: a dense array of ``size`` entries while ``size`` is at most
+        :data:`DENSE_LIMIT`, :meth:`get` otherwise."""
+        if size > DENSE_LIMIT:
+            return lambda keys: self.get(column, keys)
+        dense = np.full(size, -np.inf)
+        dense[self.keys] = self.cols[column]
+        return dense.__getitem__
+
     def upsert(self, keys: np.ndarray, **values: np.ndarray) -> None:
         """Insert or overwrite tuples. ``keys`` must be unique; columns not given keep their
         value (existing tuples) or get ``-inf`` (new tuples)."""
