@@ -121,7 +121,7 @@ def _trace(name: str) -> PositionTrace:
 
     if name not in SCENARIOS:
         raise ConfigError(f"traces: {name!r} is not a recorded trace (one of {sorted(SCENARIOS)})")
-    return PositionTrace.from_frame(SCENARIOS[name][0](), source=name)
+    return PositionTrace.from_frame(SCENARIOS[name].positions(), source=name)
 
 
 def _checked(traces: Sequence[str], runs: Sequence[int]) -> tuple[list[str], list[int]]:
