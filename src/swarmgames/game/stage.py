@@ -34,7 +34,12 @@ import numpy as np
 from swarmgames.arrays import freeze_fields
 from swarmgames.game.actions import ActionModel
 from swarmgames.game.batch import LocalGameBatch
-from swarmgames.game.equilibrium import global_regret, local_regret, profile_payoff
+from swarmgames.game.equilibrium import (
+    OwnerPayoffs,
+    global_regret,
+    local_regret,
+    profile_payoff,
+)
 from swarmgames.game.local import (
     Inbox,
     Messages,
@@ -338,7 +343,9 @@ def solve_stage(
         integrate_s += t_int
         solve_s += sol.solve_time_s
         if global_regret:
-            batches.append((owners, batch, pay))
+            # Only the owners' rows wait for the joint action, not the whole tables.
+            virtual = np.asarray(batch.is_virtual).any(axis=1)
+            batches.append((owners, virtual, OwnerPayoffs.of(pay) if inbox is None else None))
         if keep_games:
             sols.append((batch, sol))
     if global_regret:
@@ -361,18 +368,17 @@ def solve_stage(
 def _global_regret(
     rec: _Record, solver, messages, batches, action_model, potentials, exact: bool
 ) -> None:
-    """Global regret from the solved games' tables where they are the true games (exact
+    """Global regret from the solved games' owner rows where they are the true games (exact
     delivery, no virtual mean); the other games are rebuilt with actual states and true
     neighbourhoods and evaluated again."""
-    for owners, batch, pay in batches:
+    for owners, virtual, rows in batches:
         if not exact:
             _, true_pay, _, _ = evaluate_games(
                 solver, messages, owners, action_model, potentials, virtual_mean=False
             )
             rec.global_regret[owners] = global_regret(true_pay, rec.actions)
             continue
-        rec.global_regret[owners] = global_regret(pay, rec.actions)
-        virtual = np.asarray(batch.is_virtual).any(axis=1)
+        rec.global_regret[owners] = global_regret(rows, rec.actions)
         if virtual.any():
             redo = owners[virtual]
             _, true_pay, _, _ = evaluate_games(

@@ -254,9 +254,9 @@ class FlockingPotentials:
             return None
         b, k, a = np.asarray(batch.action_mask).shape
         out = np.zeros((b, k, a, k, a), dtype=dtype)
-        gb, gk, gl, pen = crowding_blocks(batch, self.separation_m)
-        phi = (-self.separation_weight / (2.0 * self.alpha_b)) * pen
-        out[gb, gk, :, gl, :] = (2.0 * phi).astype(dtype, copy=False)
+        for gb, gk, gl, pen in crowding_blocks(batch, self.separation_m):
+            phi = (-self.separation_weight / (2.0 * self.alpha_b)) * pen
+            out[gb, gk, :, gl, :] = (2.0 * phi).astype(dtype, copy=False)
         return out
 
 

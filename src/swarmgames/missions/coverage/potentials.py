@@ -315,12 +315,11 @@ class CoveragePotentials:
 
         Only variable pairs closer than :math:`d_{sep} + 2 s` (``s`` the longest move) can be
         penalised, so the (A, A) blocks of those pairs only are computed."""
-        gb, gk, gl, pen = crowding_blocks(batch, self.separation_m)  # pen: (P, A, A)
-        if gb.size == 0:
-            return
         B, K, A = np.asarray(batch.action_mask).shape
         scale = 2.0 * self.separation_cost_db * self.roi.mass / self.alpha_b
-        out.reshape(B, K, A, K, A)[gb, gk, :, gl, :] -= (scale * pen).astype(out.dtype)
+        table = out.reshape(B, K, A, K, A)
+        for gb, gk, gl, pen in crowding_blocks(batch, self.separation_m):  # pen: (P, A, A)
+            table[gb, gk, :, gl, :] -= (scale * pen).astype(out.dtype)
 
     def pairwise(self, batch) -> np.ndarray:
         """:math:`\\phi_p(k, x_k, l, x_l)` of eq. 6, shape (B, K, K, A, A); 0 on the diagonal
