@@ -381,8 +381,9 @@ def build(config) -> RendezvousMission:
         raise ConfigError(f"rendezvous: {exc}") from None
     potentials = Inertia(base, rv.move_cost) if rv.move_cost else base
     sw = config.swarm
+    takeoff = TakeOff.of(sw)
     bounds = _box(
-        rv.goal_m, rv.gather_radius_m, sw.start_center_m, sw.start_radius_m, sw.arena_margin_m
+        rv.goal_m, rv.gather_radius_m, takeoff.center_m, takeoff.radius_m, sw.arena_margin_m
     )
     return RendezvousMission(
         potentials=potentials,
@@ -390,7 +391,7 @@ def build(config) -> RendezvousMission:
         goal_m=tuple(rv.goal_m),
         gather_radius_m=rv.gather_radius_m,
         radio=radio,
-        takeoff=TakeOff.of(sw),
+        takeoff=takeoff,
     )
 
 
