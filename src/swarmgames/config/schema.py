@@ -309,8 +309,9 @@ class SwarmConfig(_Section):
     barely changes the links); all UAVs take off from one common disc of 25 m radius at the
     edge of the ROI, so the swarm starts as a single-hop clique and its links break and form as
     it spreads (a swarm of more than 21 UAVs takes off from a disc grown to about 20 radio
-    neighbours per UAV, so that its local games stay small); 10 m moves per 1 s period (10 m/s, a small multirotor's cruise speed) along
-    8 headings plus "stay" (a 3 x 3 "king's move" set, as the authors' grid controllers).
+    neighbours per UAV, so that its local games stay small); 10 m moves per 1 s period
+    (10 m/s, a small multirotor's cruise speed) along 8 headings plus "stay" (a 3 x 3
+    "king's move" set, as the authors' grid controllers).
     """
 
     n_robots: int = Field(7, ge=1, le=100_000, description="Number of UAVs.")

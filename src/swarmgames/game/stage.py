@@ -7,7 +7,11 @@ and the public API all call once per control period:
    split into batches of similar neighbourhood size (:func:`size_groups`);
 2. per batch: the local games (with or without virtual means, eq. 3), their payoff tables
    (the potentials, eq. 1) and their solution (the configured solver, Algorithm 1);
-3. the measurements from the tables already computed: every robot's payoff :math:`M_i` and
+3. robots whose states coincide build the same game and would take the same action for
+   ever: they get distinct actions, the order among them drawn from the stage's Generator
+   (:func:`~swarmgames.game.colocated.separate_colocated`; nothing changes, and nothing is
+   drawn, when no two robots coincide);
+4. the measurements from the tables already computed: every robot's payoff :math:`M_i` and
    local regret at the profile it settled on, and its global (stage-game) regret at the
    realised joint action. The global regret needs robot i's *true* local game (actual states,
    no virtual means): it is the solved game itself whenever no member of N_i was replaced by
@@ -34,6 +38,7 @@ import numpy as np
 from swarmgames.arrays import freeze_fields
 from swarmgames.game.actions import ActionModel
 from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.colocated import separate_colocated
 from swarmgames.game.equilibrium import (
     OwnerPayoffs,
     global_regret,
@@ -168,8 +173,10 @@ def _check_buckets(buckets) -> int:
 class _Record:
     """The per-robot arrays of a stage, filled game batch by game batch."""
 
-    def __init__(self, n: int) -> None:
+    def __init__(self, n: int, n_actions: int = 0) -> None:
         self.actions = np.zeros(n, dtype=np.int64)
+        self.marginal = np.zeros((n, n_actions))
+        self.action_mask = np.zeros((n, n_actions), dtype=bool)
         self.payoff = np.zeros(n)
         self.local_regret = np.zeros(n)
         self.global_regret = np.full(n, np.nan)
@@ -309,7 +316,7 @@ def solve_stage(
     >>> from swarmgames.network import TopologySnapshot
     >>> snap = TopologySnapshot.from_hop_matrix(0.0, np.array([[0, 1], [1, 0]]))
     >>> goal = FunctionPotentials(lambda s: -np.linalg.norm(s - [5.0, 0.0], axis=-1))
-    >>> stage = solve_stage(MeanFieldSolver(), snap, 1, np.zeros((2, 2)),
+    >>> stage = solve_stage(MeanFieldSolver(), snap, 1, np.array([[0.0, 0.0], [0.0, 2.0]]),
     ...                     DisplacementActions.headings(1.0, 4), goal)
     >>> stage.actions.tolist(), stage.local_regret.tolist()
     ([1, 1], [0.0, 0.0])
@@ -326,7 +333,7 @@ def solve_stage(
     source = messages if inbox is None else inbox
     groups = size_groups(source.sizes, _check_buckets(buckets), int(action_model.n_actions))
     build_s = time.perf_counter() - t0
-    rec = _Record(n)
+    rec = _Record(n, int(action_model.n_actions))
     integrate_s = solve_s = 0.0
     batches, sols = [], []
     for owners in groups:
@@ -335,6 +342,8 @@ def solve_stage(
         )
         sol = solver.solve_payoffs(pay, gen)
         rec.actions[owners] = sol.actions
+        rec.marginal[owners] = sol.marginals[:, 0]
+        rec.action_mask[owners] = pay.action_mask[:, 0]
         rec.iterations[owners] = sol.iterations
         rec.converged[owners] = sol.converged
         # The robot's own view: its local game at the profile it settled on.
@@ -348,6 +357,7 @@ def solve_stage(
             batches.append((owners, virtual, OwnerPayoffs.of(pay) if inbox is None else None))
         if keep_games:
             sols.append((batch, sol))
+    rec.actions[:] = separate_colocated(states, rec.actions, rec.marginal, rec.action_mask, gen)
     if global_regret:
         exact = source is messages
         _global_regret(rec, solver, messages, batches, action_model, potentials, exact)
@@ -414,7 +424,9 @@ def _solve_centralised(
     if getattr(solver, "action_choice", "argmax") == "sample":
         actions = sample_actions(sol.marginals[0], batch.action_mask[0], actions, gen)
     rec = _Record(n)
-    rec.actions[:] = actions
+    rec.actions[:] = separate_colocated(
+        states, actions, sol.marginals[0], batch.action_mask[0], gen
+    )
     messages, groups = plan_stage(snapshot, h, states, int(action_model.n_actions), buckets)
     _true_measures(rec, solver, messages, groups, action_model, potentials)
     rec.iterations[:] = int(sol.iterations[0])

@@ -294,9 +294,7 @@ def uav_actions(swarm, period_s: float, bounds=None) -> HeadingActions | Acceler
     return HeadingActions(swarm.step_m, swarm.n_headings, bounds)
 
 
-def takeoff_radius(
-    n_robots: int, radius_m: float, max_neighbours: int, range_m: float
-) -> float:
+def takeoff_radius(n_robots: int, radius_m: float, max_neighbours: int, range_m: float) -> float:
     """Radius of the take-off disc of ``n_robots`` UAVs: ``radius_m``, grown for a large
     swarm so that a UAV has on average at most ``max_neighbours`` others within
     ``range_m``.
@@ -325,7 +323,7 @@ def takeoff_radius(
     >>> takeoff_radius(7, 25.0, 20, 368.84)
     25.0
     >>> round(takeoff_radius(1000, 25.0, 20, 368.84))
-    2606
+    2607
     """
     if max_neighbours <= 0 or n_robots - 1 <= max_neighbours:
         return float(radius_m)
