@@ -336,17 +336,26 @@ class CoveragePotentials:
         B, K, A = amask.shape
         out = np.zeros((B, K, K, A, A))
         step = max(1, self.chunk_elems // max(1, K * K * A * A))
+        # One game larger than the chunk (the centralised game: K = N) in slices of k.
+        kstep = K if step > 1 else max(1, self.chunk_elems // max(1, K * A * A))
         off_diag = ~np.eye(K, dtype=bool)[None, :, :, None, None]
         for lo in range(0, B, step):
             hi = min(B, lo + step)
-            a = nxt[lo:hi, :, None, :, None, :]  # (b, K, 1, A, 1, 3)
             b = nxt[lo:hi, None, :, None, :, :]  # (b, 1, K, 1, A, 3)
-            val = self.signal.link(a, b)
-            if self._crowding_on and self.separation_mode == "pairwise":
-                pen = np.maximum(0.0, 1.0 - np.linalg.norm(a - b, axis=-1) / self.separation_m)
-                val = val - (self.separation_cost_db * self.roi.mass / self.alpha_b) * pen**2
-            ok = amask[lo:hi, :, None, :, None] & amask[lo:hi, None, :, None, :] & off_diag
-            out[lo:hi] = np.where(ok, val, 0.0)
+            for k0 in range(0, K, kstep):
+                k1 = min(K, k0 + kstep)
+                a = nxt[lo:hi, k0:k1, None, :, None, :]  # (b, k, 1, A, 1, 3)
+                val = self.signal.link(a, b)
+                if self._crowding_on and self.separation_mode == "pairwise":
+                    gap = np.linalg.norm(a - b, axis=-1)
+                    pen = np.maximum(0.0, 1.0 - gap / self.separation_m)
+                    val = val - (self.separation_cost_db * self.roi.mass / self.alpha_b) * pen**2
+                ok = (
+                    amask[lo:hi, k0:k1, None, :, None]
+                    & amask[lo:hi, None, :, None, :]
+                    & off_diag[:, k0:k1]
+                )
+                out[lo:hi, k0:k1] = np.where(ok, val, 0.0)
         return out
 
     def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
