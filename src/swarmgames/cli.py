@@ -488,9 +488,14 @@ def config_show(scenario: str | None, overrides: tuple[str, ...], annotated: boo
 def config_check(file: Path) -> None:
     """Validate a scenario FILE: exit 0 if valid, 2 with one line per problem if not."""
     from swarmgames.config import load_config
+    from swarmgames.sim.memory import check_memory
 
     cfg = load_config(file)
-    click.echo(f"{file}: valid (scenario {cfg.name!r}, {cfg.swarm.n_robots} robots)")
+    est = check_memory(cfg)
+    click.echo(
+        f"{file}: valid (scenario {cfg.name!r}, {cfg.swarm.n_robots} robots; estimated peak "
+        f"memory {est.total_gib:.2g} GiB)"
+    )
 
 
 @config.command("list")

@@ -456,6 +456,13 @@ class SimConfig(_Section):
             "are evaluated a second time with actual states."
         ),
     )
+    memory_limit_gib: float | None = Field(
+        None,
+        gt=0,
+        le=1e6,
+        description="Refuse, before it starts, a run whose estimated peak memory exceeds this "
+        "(swarmgames.sim.memory); unset = 80 % of the memory available when it starts, GiB.",
+    )
     animation: bool = Field(
         True, description="Write animation.gif of the swarm over the mission's background."
     )

@@ -249,6 +249,7 @@ def _true_measures(rec: _Record, solver, messages, groups, action_model, potenti
         rec.measure(owners, batch, pay, profile)
         rec.global_regret[owners] = global_regret(pay, rec.actions)
         integrate_s += t_int
+        del batch, pay  # this batch's table is freed before the next one is built
     return integrate_s
 
 
@@ -357,6 +358,7 @@ def solve_stage(
             batches.append((owners, virtual, OwnerPayoffs.of(pay) if inbox is None else None))
         if keep_games:
             sols.append((batch, sol))
+        del pay  # this batch's table is freed before the next one is built
     rec.actions[:] = separate_colocated(states, rec.actions, rec.marginal, rec.action_mask, gen)
     if global_regret:
         exact = source is messages
@@ -380,21 +382,21 @@ def _global_regret(
 ) -> None:
     """Global regret from the solved games' owner rows where they are the true games (exact
     delivery, no virtual mean); the other games are rebuilt with actual states and true
-    neighbourhoods and evaluated again."""
+    neighbourhoods and evaluated again, one batch's table at a time."""
+
+    def again(owners) -> np.ndarray:
+        _, true_pay, _, _ = evaluate_games(
+            solver, messages, owners, action_model, potentials, virtual_mean=False
+        )
+        return global_regret(true_pay, rec.actions)
+
     for owners, virtual, rows in batches:
         if not exact:
-            _, true_pay, _, _ = evaluate_games(
-                solver, messages, owners, action_model, potentials, virtual_mean=False
-            )
-            rec.global_regret[owners] = global_regret(true_pay, rec.actions)
+            rec.global_regret[owners] = again(owners)
             continue
         rec.global_regret[owners] = global_regret(rows, rec.actions)
         if virtual.any():
-            redo = owners[virtual]
-            _, true_pay, _, _ = evaluate_games(
-                solver, messages, redo, action_model, potentials, virtual_mean=False
-            )
-            rec.global_regret[redo] = global_regret(true_pay, rec.actions)
+            rec.global_regret[owners[virtual]] = again(owners[virtual])
 
 
 def _in_robot_order(groups, sols) -> dict:
