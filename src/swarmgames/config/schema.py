@@ -597,6 +597,8 @@ class ScenarioConfig(_Section):
                 "game.solver = 'centralised' holds an N^2 A^2 table: swarm.n_robots must be "
                 f"<= 300 (got {sw.n_robots})"
             )
+        if isinstance(self.mission, Section):
+            self.mission.check_scenario(self)  # the mission's rules across sections
         return self
 
     def with_overrides(self, overrides: dict[str, Any]) -> ScenarioConfig:

@@ -31,6 +31,7 @@ GIB = float(2**30)
 #: evaluation's validity masks (five int64/float64 arrays, one float64 and one bool mask).
 _GATHER_BYTES = 57.0
 
+
 @dataclass(frozen=True)
 class MemoryEstimate:
     """Predicted peak memory, by part.

@@ -126,6 +126,14 @@ class RendezvousConfig(Section):
         ),
     )
 
+    def check_scenario(self, scenario) -> None:
+        """The link term is weighted by ``game.alpha_b``, which must then be > 0."""
+        if self.link_weight > 0 and scenario.game.alpha_b == 0:
+            raise ValueError(
+                "rendezvous: the link term needs game.alpha_b > 0 (got game.alpha_b = 0): set "
+                "rendezvous.link_weight = 0 or game.alpha_b > 0"
+            )
+
 
 def _pair_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.sqrt(np.sum((a - b) ** 2, axis=-1))

@@ -245,4 +245,3 @@ def check_memory(config, mission=None) -> MemoryEstimate:
         est,
         limit,
     )
-
