@@ -259,6 +259,19 @@ def test_network_replay_bad_trace_exits_2(runner, tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("command", [["replay"], ["compare", "--backends", "olsr,oracle"]])
+def test_network_sample_every_is_bounded_before_anything_is_allocated(runner, tmp_path, command):
+    # Regression: --sample-every 1e-9 over a trace allocated billions of sample times.
+    res = runner.invoke(
+        cli,
+        ["network", *command, "--positions", HEX, "--sample-every", "1e-9", "--out", "o"],
+    )
+    assert res.exit_code == 2, res.output
+    assert "--sample-every" in res.output and "hop rows" in res.output
+    assert "Traceback" not in res.output
+    assert not (tmp_path / "o").exists()
+
+
 def test_network_compare_needs_two_backends(runner, tmp_path):
     res = runner.invoke(cli, ["network", "compare", "--positions", HEX, "--backends", "olsr"])
     assert res.exit_code == 2 and "at least two" in res.output

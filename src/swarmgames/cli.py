@@ -282,6 +282,16 @@ sample_option = click.option(
 )
 
 
+def _check_sampling(trace, sample_every: float) -> None:
+    """--sample-every bounded before anything is allocated (a 1 ns period over an hour)."""
+    from swarmgames.experiments.replay import check_sampling
+
+    try:
+        check_sampling(trace, sample_every)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--sample-every") from None
+
+
 @network.command()
 @positions_option
 @click.option("--backend", type=click.Choice(BACKENDS), default="olsr", show_default=True)
@@ -314,6 +324,7 @@ def replay(
 
     cfg = resolve_scenario(None, overrides).network
     trace = read_positions(positions)  # validate before creating the folder
+    _check_sampling(trace, sample_every)
     folder = _open_run_folder(out, f"replay-{positions.stem}", force)
     with _progress(f"replay ({backend})", not no_progress and _interactive()) as tick:
         res = replay_trace(
@@ -382,6 +393,7 @@ def compare(
         )
     cfg = resolve_scenario(None, overrides).network
     trace = read_positions(positions)
+    _check_sampling(trace, sample_every)
     folder = _open_run_folder(out, f"compare-{positions.stem}", force)
     res = compare_backends(
         trace, names, sample_every=sample_every, config=cfg, seed=seed, warmup_s=warmup
