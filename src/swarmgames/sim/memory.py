@@ -45,9 +45,10 @@ INTERPRETER_BYTES = 0.35 * GIB
 #: Share of the available memory a run may plan to use when ``sim.memory_limit_gib`` is unset.
 AVAILABLE_SHARE = 0.8
 
-#: The coverage integral's float32 temporaries per chunk entry, and the crowding penalty's
-#: float64 temporaries per block entry (at most CROWDING_CHUNK_ELEMS entries).
-_UNARY_COPIES, _CROWDING_COPIES = 5, 4
+#: The coverage integral's float32 temporaries per chunk entry, the crowding penalty's
+#: float64 temporaries per block entry (at most CROWDING_CHUNK_ELEMS entries) and the pair
+#: table's float64 temporaries per entry of its blocks (a quarter of the chunk).
+_UNARY_COPIES, _CROWDING_COPIES, _PAIR_COPIES = 5, 5, 4
 
 
 class MemoryLimitError(ConfigError):
@@ -156,7 +157,10 @@ def _potentials_bytes(mission, k: int, a: int, games: int, n: int) -> tuple[floa
     fields = min(games * k, n) * (a + 1) * float(g)
     best = 2.0 * min(float(games), max(1.0, pot.chunk_elems / max(1, k * a * g))) * k * g
     unary = 4.0 * (_UNARY_COPIES * block + fields + best)
-    return unary, (crowding if pot.separation_m > 0 and pot.separation_cost_db > 0 else 0.0)
+    pair = 8.0 * _PAIR_COPIES * min(entries, max(pot.chunk_elems / 4, k * a))
+    if pot.separation_m > 0 and pot.separation_cost_db > 0:
+        pair += crowding
+    return unary, pair
 
 
 def estimate_memory(config, mission=None, *, whole_run: bool = True) -> MemoryEstimate:
