@@ -138,3 +138,25 @@ def test_the_default_limit_is_a_share_of_the_available_memory(monkeypatch):
     assert limit == pytest.approx(8 * 2**30) and "80%" in how
     monkeypatch.setattr(memory, "available_memory_bytes", lambda: None)
     assert memory.memory_limit_bytes(config)[0] == float("inf")
+
+
+@pytest.mark.slow
+def test_olsr_hello_round_peak_is_estimated_within_a_factor_of_two():
+    # Every robot's 2-hop set holds K1^2 entries: in a clique a HELLO round builds N^3.
+    from swarmgames.sim.memory import _OLSR_PEAK
+
+    config = resolve_scenario("coverage", ["swarm.n_robots=100", DENSE])
+    mission = build_mission(config)
+    states = mission.initial_states(100, np.random.default_rng(0))
+    provider = provider_from_config(config.network, 100, np.random.default_rng(1))
+    tracemalloc.start()
+    try:
+        provider.reset(states[:, :3], 0.0)
+        provider.advance(config.sim.warmup_s, states[:, :3])
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    estimate = _OLSR_PEAK * 100**3
+    assert peak / 2 <= estimate <= 2 * peak, peak / 2**20
+    parts = dict(estimate_memory(config, mission).parts)
+    assert parts["network: OLSR tables"] == 16.0 * 100**3

@@ -19,6 +19,12 @@ the disc of the same area), whichever is larger: a coverage swarm of 300 UAVs ta
 a 1.4 km disc (K ≈ 81) but ends inside the 612 m ROI, where every UAV is within two hops of
 every other (K = 300). It is the size of the largest games (those near the centre), which
 is what the padded batches hold.
+
+With the built-in OLSR model the network's own state is added: every robot's 2-hop set holds
+K1² entries (K1 the same formula for one hop), 16 bytes each between HELLO rounds and about
+96 at the peak of a round (measured at 150 and 300 robots within range: 0.3 and 2.5 GiB). A
+round happens before the stage's games are built, so only the part above the stage's own peak
+is added.
 """
 
 from __future__ import annotations
@@ -41,6 +47,10 @@ __all__ = [
 
 #: Python, numpy, scipy, Numba, pandas and matplotlib once imported (resident, untraced).
 INTERPRETER_BYTES = 0.35 * GIB
+
+#: Bytes per entry of the OLSR model's 2-hop sets (N K1² entries): kept between HELLO rounds,
+#: and at the peak of a HELLO round (measured: 93-94 at 150 and 300 robots within range).
+_OLSR_KEPT, _OLSR_PEAK = 16.0, 96.0
 
 #: Share of the available memory a run may plan to use when ``sim.memory_limit_gib`` is unset.
 AVAILABLE_SHARE = 0.8
@@ -139,6 +149,14 @@ def neighbourhood_size(config, mission=None) -> int:
     return int(k)
 
 
+def _one_hop_size(config, mission) -> int:
+    """K1, robots within one radio range of the densest robots (owner included)."""
+    return neighbourhood_size(
+        config.model_copy(update={"network": config.network.model_copy(update={"hops": 1})}),
+        mission,
+    )
+
+
 def _potentials_bytes(mission, k: int, a: int, games: int, n: int) -> tuple[float, float]:
     """Working memory of the mission's potentials for one batch, ``(unary, pairwise)``
     bytes: the coverage integral's chunks and its crowding blocks; for other potentials
@@ -205,9 +223,21 @@ def estimate_memory(config, mission=None, *, whole_run: bool = True) -> MemoryEs
     )
     if not whole_run:
         return est
+    stage = est.total_bytes
     stages = max(1, int(config.sim.duration_s / config.sim.control_period_s))
     est = est.with_part("stages kept and written", 8.0 * stages * n * (2 * d + 30))
-    est = est.with_part("network tables", 64.0 * n * k)
+    if config.network.backend == "olsr":
+        # Every robot's 2-hop set holds K1² entries; a HELLO round builds them all at once.
+        k1 = _one_hop_size(config, mission)
+        two_hop = float(n) * k1 * k1
+        kept, peak = _OLSR_KEPT * two_hop, _OLSR_PEAK * two_hop
+        est = est.with_part("network: OLSR tables", kept)
+        if peak > kept + stage:
+            est = est.with_part(
+                "network: OLSR HELLO processing beyond the stage", peak - kept - stage
+            )
+    else:
+        est = est.with_part("network tables", 64.0 * n * k)
     return est.with_part("interpreter and libraries", INTERPRETER_BYTES)
 
 
