@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -287,10 +288,15 @@ def test_reproduce_fig1(runner, tmp_path):
 
 def test_bench_writes_results(runner, tmp_path):
     out = tmp_path / "bench"
-    res = runner.invoke(cli, ["bench", "--quick", "--sizes", "5,10", "--out", str(out)])
+    res = runner.invoke(
+        cli, ["bench", "--quick", "--sizes", "5,10", "--takeoff", "25", "--out", str(out)]
+    )
     assert res.exit_code == 0, res.output
     for name in ("bench.json", "bench.csv", "bench.png"):
         assert (out / name).is_file()
+    records = json.loads((out / "bench.json").read_text())["records"]
+    takeoff = [r for r in records if r["benchmark"] == "takeoff"]
+    assert [(r["n_robots"], r["dense"]) for r in takeoff] == [(25, False)]  # --quick: no dense
 
 
 @pytest.mark.parametrize("sizes", ["0,10", "ten", ","])

@@ -435,6 +435,14 @@ def compare(
     default=None,
     help="Threads of the payoff integration (default: 2 on machines with two cores or more).",
 )
+@click.option(
+    "--takeoff",
+    type=click.IntRange(min=0, max=100_000),
+    default=300,
+    show_default=True,
+    help="Robots of the default-scenario take-off benchmarks (0 = none); the dense case, every "
+    "robot within range, runs without --quick.",
+)
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @out_option
 @force_option
@@ -443,6 +451,7 @@ def bench(
     quick: bool,
     sizes: str | None,
     workers: int | None,
+    takeoff: int,
     seed: int,
     out: Path | None,
     force: bool,
@@ -466,7 +475,9 @@ def bench(
                 f"must be comma-separated robot counts >= 1 (got {sizes!r})", param_hint="--sizes"
             )
     folder = _open_run_folder(out, "bench", force)
-    result = run_suite(quick, folder, progress=True, sizes=parsed, seed=seed, workers=workers)
+    result = run_suite(
+        quick, folder, progress=True, sizes=parsed, seed=seed, workers=workers, takeoff=takeoff
+    )
     _console().print(result.table())
     click.echo(f"Wrote {folder.path}/")
 
