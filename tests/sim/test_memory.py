@@ -68,6 +68,10 @@ def test_neighbourhood_size_of_the_take_off_disc_and_of_the_mission_region():
     assert neighbourhood_size(resolve_scenario("coverage", [])) == 7
     # 300 UAVs take off over a 1.4 km disc but end in the 612 m ROI: all within 2 hops.
     assert neighbourhood_size(resolve_scenario("coverage", ["swarm.n_robots=300"])) == 300
+    # 1 000 take off from a 2.6 km disc, which 90 s at 10 m/s shrink to 1.7 km at most.
+    assert neighbourhood_size(resolve_scenario("coverage", ["swarm.n_robots=1000"])) == 188
+    longer = ["swarm.n_robots=1000", "sim.duration_s=1000.0"]
+    assert neighbourhood_size(resolve_scenario("coverage", longer)) == 1000
     spread = resolve_scenario("coverage", ["swarm.n_robots=10000"])
     from swarmgames.config import scaled_config
 
@@ -84,7 +88,9 @@ def test_dense_300_robot_stage_is_estimated_under_two_gib():
 
 
 def test_a_run_that_cannot_fit_is_refused_naming_the_knobs():
-    config = resolve_scenario("coverage", ["swarm.n_robots=5000", "sim.memory_limit_gib=1.0"])
+    config = resolve_scenario(
+        "coverage", ["swarm.n_robots=5000", DENSE, "sim.memory_limit_gib=1.0"]
+    )
     with pytest.raises(MemoryLimitError, match=r"sim\.memory_limit_gib = 1 = 1 GiB") as info:
         check_memory(config)
     msg = str(info.value)

@@ -14,11 +14,14 @@ N_i(h) reaches at most h radio ranges r, so
 .. math:: K = \\begin{cases} N & R \\le h r / 2 \\\\
           1 + (N - 1) \\min\\bigl(1, (h r / R)^2\\bigr) & \\text{otherwise,} \\end{cases}
 
-evaluated for the take-off disc and for the region the mission covers (its ``extent()``, as
-the disc of the same area), whichever is larger: a coverage swarm of 300 UAVs takes off from
-a 1.4 km disc (K ≈ 81) but ends inside the 612 m ROI, where every UAV is within two hops of
-every other (K = 300). It is the size of the largest games (those near the centre), which
-is what the padded batches hold.
+evaluated for the densest disc the swarm can reach: the take-off disc, or the region the
+mission covers (its ``extent()``, as the disc of the same area) if that is smaller, but no
+smaller than the take-off disc shrunk by the distance a robot flies in the mission
+(``sim.duration_s`` at ``swarm.step_m / sim.control_period_s``). A coverage swarm of 300
+UAVs takes off from a 1.4 km disc (K ≈ 81) and can reach the 612 m ROI in 90 s, where every
+UAV is within two hops of every other (K = 300); 1 000 UAVs take off from a 2.6 km disc that
+90 s shrink to 1.7 km at most (K ≈ 188). It is the size of the largest games (those near
+the centre), which is what the padded batches hold.
 
 With the built-in OLSR model the network's own state is added: every robot's 2-hop set holds
 K1² entries (K1 the same formula for one hop), 16 bytes each between HELLO rounds and about
@@ -140,13 +143,17 @@ def neighbourhood_size(config, mission=None) -> int:
         from swarmgames.missions.motion import TakeOff
 
         takeoff = TakeOff.of(config.swarm)
-    k = _disc_neighbours(n, float(takeoff.radius_m), reach)
+    densest = float(takeoff.radius_m)
     extent = getattr(mission, "extent", None)
     if callable(extent):
         x0, x1, y0, y1 = (float(v) for v in extent())
-        radius = 0.5 * math.sqrt(max(x1 - x0, 0.0) * max(y1 - y0, 0.0))
-        k = max(k, _disc_neighbours(n, radius, reach))
-    return int(k)
+        region = 0.5 * math.sqrt(max(x1 - x0, 0.0) * max(y1 - y0, 0.0))
+        # The swarm can close in on the region by at most its speed times the mission.
+        sw, sim = config.swarm, config.sim
+        speed = sw.step_m / sim.control_period_s if sw.action_set == "headings" else None
+        travel = (speed or sw.max_speed_m_s) * sim.duration_s
+        densest = min(densest, max(region, densest - travel))
+    return int(_disc_neighbours(n, densest, reach))
 
 
 def _one_hop_size(config, mission) -> int:
@@ -265,6 +272,8 @@ def check_memory(config, mission=None) -> MemoryEstimate:
         f"the take-off spread (swarm.start_max_neighbours = {sw.start_max_neighbours}, "
         f"swarm.start_radius_m = {sw.start_radius_m:g})",
     ]
+    if config.network.backend == "olsr":
+        knobs.append("network.backend = 'oracle' or 'disk' (no OLSR 2-hop sets)")
     if game.dtype == "float64":
         knobs.append("game.dtype = 'float32' (halves the pairwise tables)")
     if config.game.solver == "centralised":
