@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -259,6 +260,19 @@ def test_network_replay_bad_trace_exits_2(runner, tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("command", [["replay"], ["compare", "--backends", "olsr,oracle"]])
+def test_network_sample_every_is_bounded_before_anything_is_allocated(runner, tmp_path, command):
+    # Regression: --sample-every 1e-9 over a trace allocated billions of sample times.
+    res = runner.invoke(
+        cli,
+        ["network", *command, "--positions", HEX, "--sample-every", "1e-9", "--out", "o"],
+    )
+    assert res.exit_code == 2, res.output
+    assert "--sample-every" in res.output and "hop rows" in res.output
+    assert "Traceback" not in res.output
+    assert not (tmp_path / "o").exists()
+
+
 def test_network_compare_needs_two_backends(runner, tmp_path):
     res = runner.invoke(cli, ["network", "compare", "--positions", HEX, "--backends", "olsr"])
     assert res.exit_code == 2 and "at least two" in res.output
@@ -274,10 +288,15 @@ def test_reproduce_fig1(runner, tmp_path):
 
 def test_bench_writes_results(runner, tmp_path):
     out = tmp_path / "bench"
-    res = runner.invoke(cli, ["bench", "--quick", "--sizes", "5,10", "--out", str(out)])
+    res = runner.invoke(
+        cli, ["bench", "--quick", "--sizes", "5,10", "--takeoff", "25", "--out", str(out)]
+    )
     assert res.exit_code == 0, res.output
     for name in ("bench.json", "bench.csv", "bench.png"):
         assert (out / name).is_file()
+    records = json.loads((out / "bench.json").read_text())["records"]
+    takeoff = [r for r in records if r["benchmark"] == "takeoff"]
+    assert [(r["n_robots"], r["dense"]) for r in takeoff] == [(25, False)]  # --quick: no dense
 
 
 @pytest.mark.parametrize("sizes", ["0,10", "ten", ","])

@@ -270,3 +270,34 @@ def test_mission_field_suggestion_and_no_suggestion_when_nothing_is_close():
     with pytest.raises(ConfigError) as info:
         parse_config({"swarm": {"zzzz": 1}})
     assert info.value.errors == ["swarm.zzzz: is not a known field (got 1)"]
+
+
+@pytest.mark.parametrize(
+    ("scenario", "overrides", "match"),
+    [
+        ("coverage", ["game.alpha_b=0.0"], r"game\.alpha_b must be > 0 for the pairwise crowd"),
+        ("coverage", ["coverage.grid_cell_m=700.0"], r"coverage\.grid_cell_m must be <= the"),
+        ("coverage", ["coverage.grid_cell_m=0.1"], r"coverage\.grid_cell_m = 0\.1 m gives"),
+        ("flocking", ["swarm.action_set='headings'", "swarm.step_m=1.0"], r"action_set must be 'a"),
+        ("flocking", ["flocking.initial_speed_m_s=20.0"], r"flocking\.initial_speed_m_s must"),
+        ("flocking", ["game.alpha_b=0.0"], r"needs game\.alpha_b > 0"),
+        ("rendezvous", ["game.alpha_b=0.0"], r"rendezvous: the link term needs game\.alpha_b"),
+    ],
+)
+def test_mission_rules_across_sections_are_the_schemas(scenario, overrides, match):
+    # Regression: these were found only when the run built its mission, with the potentials'
+    # own parameter names (cell_m, alpha_b), after config check had passed the file.
+    with pytest.raises(ConfigError, match=match):
+        resolve_scenario(scenario, overrides)
+
+
+def test_config_check_applies_the_missions_rules(tmp_path):
+    from click.testing import CliRunner
+
+    from swarmgames.cli import cli
+
+    path = tmp_path / "bad.toml"
+    path.write_text("[game]\nalpha_b = 0.0\n[coverage]\ngrid_cell_m = 20.0\n")
+    res = CliRunner().invoke(cli, ["config", "check", str(path)])
+    assert res.exit_code == 2
+    assert "game.alpha_b must be > 0 for the pairwise crowding penalty" in res.output

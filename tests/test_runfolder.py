@@ -164,3 +164,70 @@ def test_unwritable_folder_is_one_error(tmp_path, monkeypatch):
     ):
         RunFolder(tmp_path / "new" / "run")
     assert not (tmp_path / "new").exists()  # what it created for nothing is gone again
+
+
+def _disk_full_on(monkeypatch, name: str) -> None:
+    """Make every fsync of a temporary file for ``name`` fail as on a full disk."""
+    import errno
+
+    real_fsync, real_fdopen = os.fsync, os.fdopen
+    doomed: set[int] = set()
+
+    def fdopen(fd, *args, **kwargs):
+        fh = real_fdopen(fd, *args, **kwargs)
+        if f".{name}." in os.readlink(f"/proc/self/fd/{fd}"):
+            doomed.add(fd)
+        return fh
+
+    def fsync(fd):
+        if fd in doomed:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real_fsync(fd)
+
+    monkeypatch.setattr(os, "fdopen", fdopen)
+    monkeypatch.setattr(os, "fsync", fsync)
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/fd"), reason="needs /proc/self/fd")
+def test_a_failed_write_is_one_error_naming_the_file_and_leaves_nothing(tmp_path, monkeypatch):
+    from swarmgames.errors import OutputWriteError
+
+    _disk_full_on(monkeypatch, "a.txt")
+    folder = RunFolder(tmp_path / "run")
+    with pytest.raises(OutputWriteError, match=r"cannot write .*a\.txt: No space left on device"):
+        folder.write_text("a.txt", "hello")
+    assert list((tmp_path / "run").iterdir()) == []
+    assert isinstance(OutputWriteError("x"), OSError)
+
+
+def test_a_folder_that_cannot_be_created_is_an_output_write_error(tmp_path):
+    from swarmgames.errors import OutputWriteError
+
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(OutputWriteError, match=r"cannot write .*file.*"):
+        atomic_write_text(tmp_path / "file" / "inner.txt", "x")
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/fd"), reason="needs /proc/self/fd")
+def test_cli_run_with_a_full_disk_exits_1_with_one_line(tmp_path, monkeypatch):
+    from click.testing import CliRunner
+
+    from swarmgames.cli import cli
+
+    _disk_full_on(monkeypatch, "metrics.csv")
+    res = CliRunner().invoke(
+        cli,
+        [
+            "run",
+            "--out",
+            str(tmp_path / "run"),
+            "--no-progress",
+            "--set",
+            "sim.duration_s=2",
+            "--set",
+            "sim.animation=false",
+        ],
+    )
+    assert res.exit_code == 1, res.output
+    assert res.output.startswith("Error: cannot write ") and "No space left on device" in res.output
+    assert len(res.output.strip().splitlines()) == 1 and "Traceback" not in res.output

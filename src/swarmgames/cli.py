@@ -344,6 +344,16 @@ sample_option = click.option(
 )
 
 
+def _check_sampling(trace, sample_every: float) -> None:
+    """--sample-every bounded before anything is allocated (a 1 ns period over an hour)."""
+    from swarmgames.experiments.replay import check_sampling
+
+    try:
+        check_sampling(trace, sample_every)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--sample-every") from None
+
+
 @network.command()
 @positions_option
 @click.option("--backend", type=click.Choice(BACKENDS), default="olsr", show_default=True)
@@ -376,6 +386,7 @@ def replay(
 
     cfg = resolve_scenario(None, overrides).network
     trace = read_positions(positions)  # validate before creating the folder
+    _check_sampling(trace, sample_every)
     folder = _open_run_folder(out, f"replay-{positions.stem}", force)
     with _progress(f"replay ({backend})", not no_progress and _interactive()) as tick:
         res = replay_trace(
@@ -444,6 +455,7 @@ def compare(
         )
     cfg = resolve_scenario(None, overrides).network
     trace = read_positions(positions)
+    _check_sampling(trace, sample_every)
     folder = _open_run_folder(out, f"compare-{positions.stem}", force)
     res = compare_backends(
         trace, names, sample_every=sample_every, config=cfg, seed=seed, warmup_s=warmup
@@ -485,6 +497,14 @@ def compare(
     default=None,
     help="Threads of the payoff integration (default: 2 on machines with two cores or more).",
 )
+@click.option(
+    "--takeoff",
+    type=click.IntRange(min=0, max=100_000),
+    default=300,
+    show_default=True,
+    help="Robots of the default-scenario take-off benchmarks (0 = none); the dense case, every "
+    "robot within range, runs without --quick.",
+)
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @out_option
 @force_option
@@ -493,6 +513,7 @@ def bench(
     quick: bool,
     sizes: str | None,
     workers: int | None,
+    takeoff: int,
     seed: int,
     out: Path | None,
     force: bool,
@@ -516,7 +537,9 @@ def bench(
                 f"must be comma-separated robot counts >= 1 (got {sizes!r})", param_hint="--sizes"
             )
     folder = _open_run_folder(out, "bench", force)
-    result = run_suite(quick, folder, progress=True, sizes=parsed, seed=seed, workers=workers)
+    result = run_suite(
+        quick, folder, progress=True, sizes=parsed, seed=seed, workers=workers, takeoff=takeoff
+    )
     _console().print(result.table())
     click.echo(f"Wrote {folder.path}/")
 
@@ -550,9 +573,14 @@ def config_show(scenario: str | None, overrides: tuple[str, ...], annotated: boo
 def config_check(file: Path) -> None:
     """Validate a scenario FILE: exit 0 if valid, 2 with one line per problem if not."""
     from swarmgames.config import load_config
+    from swarmgames.sim.memory import check_memory
 
     cfg = load_config(file)
-    click.echo(f"{file}: valid (scenario {cfg.name!r}, {cfg.swarm.n_robots} robots)")
+    est = check_memory(cfg)
+    click.echo(
+        f"{file}: valid (scenario {cfg.name!r}, {cfg.swarm.n_robots} robots; estimated peak "
+        f"memory {est.total_gib:.2g} GiB)"
+    )
 
 
 @config.command("list")

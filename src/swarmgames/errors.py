@@ -11,6 +11,7 @@ __all__ = [
     "BackendUnavailableError",
     "ConfigError",
     "InputDataError",
+    "OutputWriteError",
     "RunFolderError",
     "SwarmgamesError",
 ]
@@ -43,6 +44,11 @@ class InputDataError(SwarmgamesError, ValueError):
 class RunFolderError(SwarmgamesError, FileExistsError):
     """The output folder cannot be used: it exists and is not empty and ``force`` was not
     given, it is a file, or it cannot be created or written into."""
+
+
+class OutputWriteError(SwarmgamesError, OSError):
+    """An output file could not be written (disk full, permission, ...); the message names
+    the file and the system's reason, and the file is left absent or as it was."""
 
 
 class BackendUnavailableError(SwarmgamesError, ImportError):

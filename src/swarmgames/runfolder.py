@@ -21,7 +21,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
-from swarmgames.errors import RunFolderError
+from swarmgames.errors import OutputWriteError, RunFolderError
 
 __all__ = [
     "AppendFile",
@@ -47,14 +47,23 @@ def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO
         Text or binary mode.
     **kwargs
         Passed to :func:`open` (e.g. ``encoding``, ``newline``).
+
+    Raises
+    ------
+    OutputWriteError
+        The file could not be written (an ``OSError``: disk full, permission, ...); the
+        message names the file and the reason.
     """
     if mode not in ("w", "wb"):
         raise ValueError(f"mode must be 'w' or 'wb' (got {mode!r})")
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     if mode == "w":
         kwargs.setdefault("encoding", "utf-8")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise _write_error(path, exc) from None
     try:
         # mkstemp creates the file 0600; give it the permissions an ordinary open() would.
         os.chmod(tmp, 0o666 & ~_umask())
@@ -63,10 +72,18 @@ def atomic_open(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[IO
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
+    except BaseException as exc:
+        with contextlib.suppress(OSError):
             os.unlink(tmp)
+        if isinstance(exc, OSError) and not isinstance(exc, OutputWriteError):
+            raise _write_error(path, exc) from None
         raise
+
+
+def _write_error(path: Path, exc: OSError) -> OutputWriteError:
+    """One line naming the file and the system's reason (disk full, permission, ...)."""
+    why = exc.strerror or str(exc) or type(exc).__name__
+    return OutputWriteError(f"cannot write {path}: {why}")
 
 
 def _is_leftover(p: Path) -> bool:

@@ -30,3 +30,9 @@ class Section(BaseModel):
     model_config = ConfigDict(
         extra="forbid", frozen=True, validate_default=True, allow_inf_nan=False
     )
+
+    def check_scenario(self, scenario) -> None:
+        """Rules that span this section and the rest of ``scenario`` (a mission's section
+        against ``[game]`` or ``[swarm]``, for example); the scenario's validation calls it,
+        so ``config check`` and ``run`` agree. Raise ``ValueError`` with a message that
+        names the fields, the rule and the values. The base class has none."""

@@ -13,7 +13,9 @@ from swarmgames.bench.stage import StageBench
 
 @pytest.fixture(scope="module")
 def tiny():
-    return run_suite(sizes=(5, 12), repeats=1, n_single=3, ns3=False, progress=False)
+    return run_suite(
+        sizes=(5, 12), repeats=1, n_single=3, ns3=False, progress=False, takeoff=30, dense=True
+    )
 
 
 def test_records_of_every_benchmark(tiny):
@@ -42,6 +44,13 @@ def test_records_of_every_benchmark(tiny):
     assert decide["n_games"] == 12 and decide["n_single"] == 3 and decide["ratio"] > 0
     assert tiny.meta["numba"]
     assert np.isfinite(tiny.slope)
+    takeoff = {r["dense"]: r for r in tiny.records if r["benchmark"] == "takeoff"}
+    assert set(takeoff) == {False, True}
+    assert takeoff[True]["neighbours_mean"] == 29 and takeoff[True]["takeoff_radius_m"] == 25.0
+    assert takeoff[False]["takeoff_radius_m"] > 25.0  # 30 UAVs: the disc grew
+    for r in takeoff.values():
+        assert r["n_robots"] == 30 and r["peak_mb"] > 0 and r["median_s"] > 0
+        assert r["peak_mb"] <= r["estimate_mb"]
 
 
 def test_table_frame_plot_and_files(tiny, tmp_path):

@@ -113,3 +113,17 @@ def test_bad_sample_interval(bad):
 def test_bad_end():
     with pytest.raises(ValueError, match="end must be >= the trace start"):
         replay(DATA / "positions.csv", "oracle", end=-1.0)
+
+
+def test_sampling_is_bounded_by_the_rows_it_could_hold():
+    from swarmgames.experiments.replay import MAX_HOP_ROWS, check_sampling
+    from swarmgames.network.trace import read_positions
+
+    trace = read_positions(DATA / "positions.csv")
+    assert check_sampling(trace, 0.5) == int((trace.end - trace.start) / 0.5) + 1
+    routes = trace.n_robots * (trace.n_robots - 1)
+    finest = (trace.end - trace.start) / (MAX_HOP_ROWS // routes)
+    with pytest.raises(ValueError, match=r"sample_every must give at most 50,000,000 hop rows"):
+        check_sampling(trace, finest / 10)
+    with pytest.raises(ValueError, match="sample_every must be > 0"):
+        check_sampling(trace, True)

@@ -176,3 +176,23 @@ def test_enumeration_refuses_huge_games():
     pay = evaluate_payoffs(batch, pot)
     with pytest.raises(ValueError, match=r"4096 joint profiles, more than max_profiles=100"):
         pure_equilibria(pay, 0, max_profiles=100)
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_global_regret_from_the_owner_rows_is_the_same(dtype):
+    # The stage keeps only OwnerPayoffs (row 0 of each table) until the joint action is
+    # known; the regret must be that of the whole tables, bit for bit.
+    from dataclasses import replace
+
+    from swarmgames.game import OwnerPayoffs, evaluate_payoffs
+
+    batch, pot = random_games(7, 40, 6, 5, ragged=False)
+    batch = replace(batch, owner=np.asarray(batch.members)[:, 0])  # variable 0 owns the game
+    pay = evaluate_payoffs(batch, pot, 1.0, 0.5, dtype=dtype)
+    members = np.asarray(pay.members)
+    joint = np.random.default_rng(1).integers(0, 5, members.max() + 1)
+    rows = OwnerPayoffs.of(pay)
+    assert rows.pair.shape == (40, 5, 6, 5)
+    whole = deviation_gains(pay, np.where(pay.mask, joint[np.maximum(members, 0)], 0))[:, 0]
+    np.testing.assert_array_equal(global_regret(rows, joint), whole)
+    np.testing.assert_array_equal(global_regret(pay, joint), whole)

@@ -348,3 +348,42 @@ def test_pairwise_crowding_rejects_a_zero_pair_weight(small):
         CoveragePotentials(base.roi, base.signal, separation_mode="both")
     # no crowding: a zero pair weight is fine (the paper with alpha_b = 0)
     CoveragePotentials(base.roi, base.signal, alpha_b=0.0, separation_mode="pairwise")
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_dense_games_in_small_chunks_are_bit_identical(small, dtype):
+    # Regression (dense neighbourhoods): a game larger than the chunk is integrated in slices
+    # of variables and its pair table built in blocks of rows; 25 co-clustered robots (every
+    # pair within the crowding distance) in 3 games.
+    base, model = small
+    rng = np.random.default_rng(4)
+    states = np.c_[rng.uniform(-30, 30, (3, 25, 2)), np.full((3, 25, 1), 30.0)]
+    mask = np.ones((3, 25), dtype=bool)
+    mask[2, 20:] = False
+    batch = _batch(states, mask, model)
+    kwargs = {"softness_db": 1.0, "separation_m": 50.0, "separation_cost_db": 0.1}
+    one = CoveragePotentials(base.roi, base.signal, chunk_elems=10**12, **kwargs)
+    sliced = CoveragePotentials(base.roi, base.signal, chunk_elems=2_000, **kwargs)
+    np.testing.assert_array_equal(sliced.unary(batch), one.unary(batch))
+    np.testing.assert_array_equal(sliced.pairwise(batch), one.pairwise(batch))
+    if dtype == np.float64:
+        np.testing.assert_array_equal(sliced.pair_table(batch, dtype), one.pair_table(batch, dtype))
+
+
+def test_crowding_blocks_in_chunks_equal_one_block(small):
+    from swarmgames.missions.geometry import crowding_blocks
+
+    _, model = small
+    rng = np.random.default_rng(5)
+    states = np.c_[rng.uniform(-40, 40, (2, 12, 2)), np.full((2, 12, 1), 30.0)]
+    batch = _batch(states, np.ones((2, 12), dtype=bool), model)
+    whole = list(crowding_blocks(batch, 50.0, max_elems=10**9))
+    parts = list(crowding_blocks(batch, 50.0, max_elems=3 * 25))  # 3 pairs of 5 x 5 actions
+    assert len(whole) == 1 and len(parts) > 10
+    for i in range(4):
+        np.testing.assert_array_equal(np.concatenate([p[i] for p in parts]), whole[0][i])
+    # The values are np.linalg.norm's, bit for bit.
+    gb, gk, gl, pen = whole[0]
+    nxt = np.asarray(batch.next_states)
+    d = np.linalg.norm(nxt[gb, gk][:, :, None, :] - nxt[gb, gl][:, None, :, :], axis=-1)
+    np.testing.assert_array_equal(pen, np.maximum(0.0, 1.0 - d / 50.0) ** 2)

@@ -65,7 +65,7 @@ def test_arrays_read_only_and_expectation():
         ({"confidence": 1.0}, r"confidence must be in \(0, 1\) \(got 1.0\)"),
         ({"cell_m": 0.0}, r"cell_m must be > 0 \(got 0.0\)"),
         ({"cell_m": 5000.0}, "cell_m must be <= the ROI's shortest semi-axis"),
-        ({"cell_m": 0.01}, "more than max_cells"),
+        ({"cell_m": 0.01}, r"grid cells, more than 4,000,000; choose a larger cell"),
         ({"mean": (np.nan, 0.0)}, "mean must be 2 finite numbers"),
     ],
 )

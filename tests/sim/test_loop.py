@@ -1,6 +1,7 @@
 """Tests of the stage loop: one robot, a partitioned swarm, Ctrl-C, determinism."""
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from swarmgames.config import parse_config
@@ -141,24 +142,25 @@ def test_start_positions_in_takeoff_disc():
     assert r.mean() == pytest.approx(25.0 * 2 / 3, rel=0.05)  # uniform over the disc
 
 
-def test_colocated_start():
-    # Exactly co-located robots are indistinguishable to their local games: with the argmax
-    # they take the same action every stage and stay together; sampling the action from the
-    # marginal separates them. Both runs stay finite.
-    cfg = _cfg(swarm={"n_robots": 3, "start_radius_m": 0.0}, sim={"duration_s": 12.0})
-    together = run(cfg, progress=False, provider=DiskOracle())
-    xy = together.trajectory[["x", "y"]].to_numpy().reshape(-1, 3, 2)
-    np.testing.assert_allclose(xy[:, 1:], np.repeat(xy[:, :1], 2, axis=1))
+@pytest.mark.parametrize("choice", ["argmax", "sample"])
+def test_colocated_start_separates(choice):
+    # Regression: robots that all take off from one point built the same local game, took
+    # the same action at every stage (argmax) and never separated. The seeded tie-break
+    # gives them distinct actions at the first stage; after that their games differ.
     cfg = _cfg(
         swarm={"n_robots": 3, "start_radius_m": 0.0},
-        game={"action_choice": "sample"},
-        sim={"duration_s": 60.0},
+        game={"action_choice": choice},
+        sim={"duration_s": 12.0},
     )
-    apart = run(cfg, progress=False, provider=DiskOracle())
-    xy = apart.trajectory[["x", "y"]].to_numpy().reshape(-1, 3, 2)
-    assert np.ptp(xy[-1], axis=0).max() > 0
-    for res in (together, apart):
-        assert np.isfinite(res.metrics[["payoff", "local_regret", "global_regret"]]).all().all()
+    res = run(cfg, progress=False, provider=DiskOracle())
+    xy = res.trajectory[["x", "y"]].to_numpy().reshape(-1, 3, 2)
+    assert np.ptp(xy[0], axis=0).max() == 0  # all at one point
+    for stage in xy[1:]:
+        gaps = np.linalg.norm(stage[:, None] - stage[None], axis=-1)[np.triu_indices(3, 1)]
+        assert gaps.min() > 1.0
+    assert np.isfinite(res.metrics[["payoff", "local_regret", "global_regret"]]).all().all()
+    again = run(cfg, progress=False, provider=DiskOracle())
+    pd.testing.assert_frame_equal(again.trajectory, res.trajectory)  # seeded
 
 
 def test_hop_stats_reach_beyond_hello_only_tables():

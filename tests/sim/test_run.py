@@ -164,7 +164,14 @@ def test_two_robot_payoff_against_hand_computation():
     [
         ({"swarm": {"step_m": 20.0}}, r"swarm.step_m / sim.control_period_s must be <= "),
         ({"sim": {"duration_s": 0.5}}, r"sim.duration_s must be >= sim.control_period_s"),
-        ({"coverage": {"grid_cell_m": 1000.0}}, r"coverage: cell_m must be <= "),
+        (
+            {"coverage": {"grid_cell_m": 1000.0}},
+            r"coverage.grid_cell_m must be <= the ROI's shortest semi-axis, 611.9 m",
+        ),
+        (
+            {"coverage": {"grid_cell_m": 0.2}},
+            r"coverage.grid_cell_m = 0.2 m gives about 37,454,400 grid cells",
+        ),
         ({"swarm": {"n_robots": 0}}, r"swarm.n_robots: must be >= 1 \(got 0\)"),
         ({"coverage": {"confidence": 1.5}}, r"coverage.confidence: must be < 1"),
         ({"sim": {"controller": "voronoi"}}, r"sim.controller"),
@@ -172,7 +179,7 @@ def test_two_robot_payoff_against_hand_computation():
         ({"coverage": {"separation_mode": "both"}}, r"coverage.separation_mode"),
         (
             {"game": {"alpha_b": 0.0}},
-            r"coverage: the pairwise crowding penalty needs a pairwise weight > 0",
+            r"game.alpha_b must be > 0 for the pairwise crowding penalty \(coverage",
         ),
         (
             {"coverage": {"roi_cov_m2": [[1.0, 2.0], [2.0, 1.0]]}},

@@ -26,7 +26,12 @@ and ratios measured in the same run:
 * ``olsr_vs_ns3`` — the built-in OLSR against ns-3 on the same positions trace (full
   protocol, TCs included), when ns-3 is installed and not ``quick`` (importing ns-3 takes
   about 10 s);
-* ``slope`` — the least-squares slope of log(stage time) against log(N) for N >= 100.
+* ``slope`` — the least-squares slope of log(stage time) against log(N) for N >= 100;
+* ``takeoff`` — a stage of the *default* scenario (``swarmgames run --set
+  swarm.n_robots=300``: the take-off disc grown for the swarm, no signal floor, float64), its
+  traced peak memory next to the estimate of :mod:`swarmgames.sim.memory`; and, unless
+  ``quick``, the dense case: the same robots on the 25 m disc, every one within range of
+  every other (``dense``: K = N).
 
 Timings are wall-clock medians of :func:`~swarmgames.bench.timing.measure` on one process;
 they depend on the machine and its load, so they are never asserted in tests.
@@ -49,7 +54,7 @@ from swarmgames.bench.game import bench_local_game
 from swarmgames.bench.stage import StageBench
 from swarmgames.game.stage import evaluate_games, plan_stage
 
-__all__ = ["QUICK_SIZES", "SIZES", "BenchResult", "run_suite"]
+__all__ = ["QUICK_SIZES", "SIZES", "TAKEOFF_ROBOTS", "BenchResult", "run_suite"]
 
 SIZES = (10, 100, 1_000, 10_000)
 QUICK_SIZES = (10, 100, 1_000)
@@ -147,6 +152,13 @@ class BenchResult:
             notes.append(
                 f"routed comms exchange at N = {r['n_robots']:,}: {_fmt_s(r['median_s'])} "
                 f"({100 * r['share_of_stage']:.1f} % of a stage)"
+            )
+        for r in self._of("takeoff"):
+            what = "all in range" if r["dense"] else "default take-off"
+            notes.append(
+                f"default scenario, N = {r['n_robots']:,}, {what} (K ≈ "
+                f"{r['neighbours_mean'] + 1:.0f}): {_fmt_s(r['median_s'])} per stage, peak "
+                f"{r['peak_mb']:.0f} MiB traced (estimate {r['estimate_mb']:.0f} MiB)"
             )
         for r in self._of("olsr_vs_ns3"):
             if r.get("skipped"):
@@ -284,6 +296,51 @@ def _stage_records(n: int, repeats: int, seed: int, workers: int) -> tuple[list[
             "unit": "per control period",
         },
     ], sb
+
+
+#: Robots of the take-off benchmarks, and the stages timed (after the measured one).
+TAKEOFF_ROBOTS, TAKEOFF_REPEATS = 300, 2
+
+
+def _takeoff_record(n: int, dense: bool, repeats: int, seed: int) -> dict:
+    """A stage of the default scenario with ``n`` robots from its default take-off disc
+    (``dense``: the 25 m disc whatever N, so every robot is within range of every other):
+    the traced peak of the first stage, the median time of it and ``repeats`` more, and the
+    stage estimate of :func:`~swarmgames.sim.memory.estimate_memory`."""
+    from swarmgames.config import resolve_scenario
+    from swarmgames.sim.memory import estimate_memory
+
+    over = [f"swarm.n_robots={n}"] + (["swarm.start_max_neighbours=0"] if dense else [])
+    sb = StageBench(n, config=resolve_scenario("coverage", over), seed=seed)
+    tracemalloc.start()
+    try:
+        t0 = time.perf_counter()
+        sb.step()
+        samples = [time.perf_counter() - t0]
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        sb.step()
+        samples.append(time.perf_counter() - t0)
+    est = estimate_memory(sb.config, sb.mission, whole_run=False)
+    med = sb.parts.medians()
+    return {
+        "benchmark": "takeoff",
+        "n_robots": n,
+        "dense": dense,
+        "median_s": float(np.median(samples)),
+        "repeats": len(samples),
+        "integrate_s": med["integrate_s"],
+        "solve_s": med["solve_s"],
+        "neighbours_mean": med["neighbours"],
+        "takeoff_radius_m": float(sb.mission.takeoff.radius_m),
+        "peak_mb": peak / 2**20,
+        "estimate_mb": est.total_bytes / 2**20,
+        "estimate_vars": est.n_vars,
+        "rss_max_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+    }
 
 
 def _routed_comms(sb: StageBench, stage_s: float, repeats: int, seed: int) -> dict:
@@ -492,6 +549,8 @@ def run_suite(
     ns3: bool | None = None,
     seed: int = 0,
     workers: int | None = None,
+    takeoff: int | None = None,
+    dense: bool | None = None,
 ) -> BenchResult:
     """Run the benchmark suite (module notes) and optionally write it.
 
@@ -515,6 +574,11 @@ def run_suite(
     workers : int, optional
         Threads of the windowed integral (``coverage.workers``); default: 2 where the machine
         has two cores or more (the numbers of ``docs/bench.md``), else 1.
+    takeoff : int, optional
+        Robots of the ``takeoff`` benchmarks (default :data:`TAKEOFF_ROBOTS`; 0 = none).
+    dense : bool, optional
+        Also the dense take-off case, every robot within range (default: not ``quick``;
+        about a minute at 300 robots).
 
     Returns
     -------
@@ -589,6 +653,15 @@ def run_suite(
                 "to_n": int(st[-1]["n_robots"]),
             }
         )
+    takeoff = TAKEOFF_ROBOTS if takeoff is None else int(takeoff)
+    for crowded in (False, True) if takeoff > 0 else ():
+        if crowded and not (not quick if dense is None else dense):
+            continue
+        what = "every robot within range" if crowded else "the default take-off disc"
+        _say(progress, f"default scenario, N = {takeoff:,} from {what}")
+        rec = _takeoff_record(takeoff, crowded, 0 if crowded else TAKEOFF_REPEATS, seed)
+        records.append(rec)
+        _say(progress, f"  {_fmt_s(rec['median_s'])} per stage, peak {rec['peak_mb']:.0f} MiB")
     if ns3 is None:
         ns3 = not quick
     if ns3:

@@ -320,8 +320,10 @@ class SwarmConfig(_Section):
     (a typical low-altitude survey height, well below the 368.84 m radio range, so altitude
     barely changes the links); all UAVs take off from one common disc of 25 m radius at the
     edge of the ROI, so the swarm starts as a single-hop clique and its links break and form as
-    it spreads; 10 m moves per 1 s period (10 m/s, a small multirotor's cruise speed) along
-    8 headings plus "stay" (a 3 x 3 "king's move" set, as the authors' grid controllers).
+    it spreads (a swarm of more than 21 UAVs takes off from a disc grown to about 20 radio
+    neighbours per UAV, so that its local games stay small); 10 m moves per 1 s period
+    (10 m/s, a small multirotor's cruise speed) along 8 headings plus "stay" (a 3 x 3
+    "king's move" set, as the authors' grid controllers).
     """
 
     n_robots: int = Field(7, ge=1, le=100_000, description="Number of UAVs.")
@@ -330,7 +332,25 @@ class SwarmConfig(_Section):
         (-300.0, 0.0), description="Centre of the common take-off area (x, y), metres."
     )
     start_radius_m: float = Field(
-        25.0, ge=0, description="Radius of the take-off disc, metres (uniform start positions)."
+        25.0,
+        ge=0,
+        description="Radius of the take-off disc, metres (uniform start positions); grown for "
+        "a swarm of more than start_max_neighbours + 1 UAVs.",
+    )
+    start_max_neighbours: int = Field(
+        20,
+        ge=0,
+        le=100_000,
+        description="Larger swarms take off from a disc grown so that a UAV has on average at "
+        "most this many others within start_neighbour_range_m: radius max(start_radius_m, "
+        "range sqrt((n_robots - 1) / start_max_neighbours)); 0 = always start_radius_m.",
+    )
+    start_neighbour_range_m: float = Field(
+        368.84,
+        gt=0,
+        le=1e6,
+        description="Distance within which take-off neighbours are counted (the default "
+        "radio range), metres.",
     )
     step_m: float = Field(
         10.0, gt=0, description="Distance flown by one move action per control period, metres."
@@ -486,6 +506,13 @@ class SimConfig(_Section):
             "up to 500 000 trajectory rows (robots x stages), then parquet if pyarrow is "
             "installed, else csv.gz."
         ),
+    )
+    memory_limit_gib: float | None = Field(
+        None,
+        gt=0,
+        le=1e6,
+        description="Refuse, before it starts, a run whose estimated peak memory exceeds this "
+        "(swarmgames.sim.memory); unset = 80 % of the memory available when it starts, GiB.",
     )
     animation: bool = Field(
         True, description="Write animation.gif of the swarm over the mission's background."
@@ -666,6 +693,8 @@ class ScenarioConfig(_Section):
                 "game.solver = 'centralised' holds an N^2 A^2 table: swarm.n_robots must be "
                 f"<= 300 (got {sw.n_robots})"
             )
+        if isinstance(self.mission, Section):
+            self.mission.check_scenario(self)  # the mission's rules across sections
         return self
 
     def with_overrides(self, overrides: dict[str, Any]) -> ScenarioConfig:

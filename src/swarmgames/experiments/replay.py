@@ -24,7 +24,10 @@ from swarmgames.network.trace import PositionTrace, read_positions
 from swarmgames.sim.providers import provider_from_config
 from swarmgames.topology import TopologySnapshot
 
-__all__ = ["ReplayResult", "replay", "summarise"]
+__all__ = ["MAX_HOP_ROWS", "ReplayResult", "check_sampling", "replay", "summarise"]
+
+#: Most rows of a replay's hop table (every sample's routes, about 1 GB with the snapshots).
+MAX_HOP_ROWS = 50_000_000
 
 
 def summarise(snap: TopologySnapshot) -> dict:
@@ -96,6 +99,37 @@ class ReplayResult:
         return paths
 
 
+def check_sampling(trace: PositionTrace, sample_every, end: float | None = None) -> int:
+    """The number of samples of a replay, checked before anything is allocated.
+
+    Every sample keeps up to ``N (N - 1)`` routes, so the samples times that may hold at most
+    :data:`MAX_HOP_ROWS` rows.
+
+    Raises
+    ------
+    ValueError
+        ``sample_every`` is not a positive finite number, ``end`` is before the trace's start,
+        or the replay could hold more than :data:`MAX_HOP_ROWS` rows (the message names
+        ``sample_every`` and the numbers).
+    """
+    ok = isinstance(sample_every, (int, float)) and not isinstance(sample_every, bool)
+    if not (ok and np.isfinite(sample_every) and sample_every > 0):
+        raise ValueError(f"sample_every must be > 0 (got {sample_every})")
+    stop = trace.end if end is None else float(end)
+    if not np.isfinite(stop) or stop < trace.start:
+        raise ValueError(f"end must be >= the trace start {trace.start} (got {end})")
+    samples = int(np.floor((stop - trace.start) / sample_every + 1e-9)) + 1
+    routes = trace.n_robots * max(trace.n_robots - 1, 1)
+    if samples * routes > MAX_HOP_ROWS:
+        raise ValueError(
+            f"sample_every must give at most {MAX_HOP_ROWS:,} hop rows: {samples:,} samples "
+            f"over {stop - trace.start:g} s of up to {routes:,} routes each "
+            f"({trace.n_robots} robots) (got sample_every = {sample_every:g} s); sample less "
+            "often"
+        )
+    return samples
+
+
 def _sample_times(start: float, end: float, every: float) -> np.ndarray:
     k = np.arange(int(np.floor((end - start) / every + 1e-9)) + 1)
     return np.round(start + k * every, 9)
@@ -143,7 +177,7 @@ def replay(
     InputDataError
         For a malformed trace (the message names the line and column).
     ValueError
-        If ``sample_every`` is not a positive finite number or ``end`` is before the start.
+        See :func:`check_sampling`.
 
     Examples
     --------
@@ -154,15 +188,10 @@ def replay(
     >>> res.hops.to_dict("list")["hops"]
     [1, 1, 1, 1, 1, 1]
     """
-    if not (isinstance(sample_every, (int, float)) and np.isfinite(sample_every)) or (
-        sample_every <= 0
-    ):
-        raise ValueError(f"sample_every must be > 0 (got {sample_every})")
     if not isinstance(trace, PositionTrace):
         trace = read_positions(trace)
+    check_sampling(trace, sample_every, end)
     stop = trace.end if end is None else float(end)
-    if not np.isfinite(stop) or stop < trace.start:
-        raise ValueError(f"end must be >= the trace start {trace.start} (got {end})")
     if isinstance(provider, str):
         cfg = (config or NetworkConfig()).model_copy(update={"backend": provider})
         provider = provider_from_config(cfg, trace.n_robots, seed, full_tables=True)

@@ -8,7 +8,9 @@ from swarmgames.game.actions import ActionModel, DisplacementActions, action_mas
 from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.checks import check_action_model, check_potentials
+from swarmgames.game.colocated import colocated_groups, separate_colocated
 from swarmgames.game.equilibrium import (
+    OwnerPayoffs,
     deviation_gains,
     enumerate_payoffs,
     global_regret,
@@ -73,6 +75,7 @@ __all__ = [
     "MeanFieldResult",
     "MeanFieldSolver",
     "Messages",
+    "OwnerPayoffs",
     "Potentials",
     "RandomSolver",
     "Solver",
@@ -86,6 +89,7 @@ __all__ = [
     "centralised_game",
     "check_action_model",
     "check_potentials",
+    "colocated_groups",
     "deviation_gains",
     "enumerate_payoffs",
     "evaluate_games",
@@ -105,6 +109,7 @@ __all__ = [
     "random_profiles",
     "reaches_outside",
     "receive",
+    "separate_colocated",
     "solve_stage",
     "stage_regret",
 ]

@@ -26,12 +26,15 @@ References
 from __future__ import annotations
 
 import itertools
+from dataclasses import dataclass
 
 import numpy as np
 
+from swarmgames.arrays import freeze_fields
 from swarmgames.game.potentials import GamePayoffs
 
 __all__ = [
+    "OwnerPayoffs",
     "deviation_gains",
     "enumerate_payoffs",
     "global_regret",
@@ -103,21 +106,71 @@ def local_regret(payoffs: GamePayoffs, profile) -> np.ndarray:
     return deviation_gains(payoffs, profile).max(axis=1)
 
 
-def global_regret(true_payoffs: GamePayoffs, joint_actions) -> np.ndarray:
+@dataclass(frozen=True, eq=False)
+class OwnerPayoffs:
+    """What the global regret needs of a batch of true local games: the owner's rows.
+
+    The owner's deviation gain reads only row 0 of the tables, so a stage keeps these for
+    every batch until the joint action is known, ``1 / K`` of the pairwise table instead of
+    the whole ``(B, K, A, K, A)``.
+
+    Parameters
+    ----------
+    unary : ndarray, shape (B, A)
+        ``GamePayoffs.unary[:, 0]``.
+    pair : ndarray, shape (B, A, K, A) or None
+        ``GamePayoffs.pair[:, 0]``.
+    action_mask : ndarray of bool, shape (B, K, A)
+    mask : ndarray of bool, shape (B, K)
+    owner : ndarray of int32, shape (B,)
+    members : ndarray of int32, shape (B, K)
+    """
+
+    unary: np.ndarray
+    pair: np.ndarray | None
+    action_mask: np.ndarray
+    mask: np.ndarray
+    owner: np.ndarray
+    members: np.ndarray
+
+    def __post_init__(self) -> None:
+        freeze_fields(self)
+
+    @classmethod
+    def of(cls, payoffs: GamePayoffs) -> OwnerPayoffs:
+        """The owner's rows of ``payoffs`` (copies: the full tables can be freed)."""
+        pair = None if payoffs.pair is None else payoffs.pair[:, 0].copy()
+        return cls(
+            payoffs.unary[:, 0].copy(),
+            pair,
+            payoffs.action_mask,
+            payoffs.mask,
+            payoffs.owner,
+            payoffs.members,
+        )
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """``(B, K, A)`` of the games."""
+        return self.action_mask.shape  # type: ignore[return-value]
+
+
+def global_regret(true_payoffs: GamePayoffs | OwnerPayoffs, joint_actions) -> np.ndarray:
     """Stage-game regret of each owner at the realised joint action.
 
     Parameters
     ----------
-    true_payoffs : GamePayoffs
+    true_payoffs : GamePayoffs or OwnerPayoffs
         Payoffs of the games built with actual states and true neighbourhoods
-        (``virtual_mean=False``); column 0 of each game is its owner.
+        (``virtual_mean=False``), or their owners' rows; column 0 of each game is its owner.
     joint_actions : array_like of int, shape (N,)
         The action every robot took.
 
     Returns
     -------
     ndarray, shape (B,)
-        Gain of each owner by deviating alone, all other robots' actions fixed.
+        Gain of each owner by deviating alone, all other robots' actions fixed (the same
+        values from ``GamePayoffs`` and from its ``OwnerPayoffs``).
     """
     joint = np.asarray(joint_actions)
     if joint.ndim != 1:
@@ -129,8 +182,20 @@ def global_regret(true_payoffs: GamePayoffs, joint_actions) -> np.ndarray:
         )
     if np.any(true_payoffs.members[:, 0] != true_payoffs.owner):
         raise ValueError("global_regret needs games whose variable 0 is the owner")
-    profile = np.where(true_payoffs.mask, joint[np.maximum(members, 0)], 0)
-    return deviation_gains(true_payoffs, profile)[:, 0]
+    rows = true_payoffs
+    if isinstance(rows, GamePayoffs):
+        rows = OwnerPayoffs.of(rows)
+    profile = np.where(rows.mask, joint[np.maximum(members, 0)], 0)
+    x = _check_profile(rows, profile)
+    field = rows.unary.astype(np.float64)
+    if rows.pair is not None:
+        b, a, k = rows.pair.shape[:3]
+        base = np.arange(b * a * k, dtype=np.int64).reshape(b, a, k) * rows.pair.shape[3]
+        field = field + np.take(rows.pair.reshape(-1), base + x[:, None, :]).sum(axis=2)
+    amask = rows.action_mask[:, 0]
+    best = np.where(amask, field, -np.inf).max(axis=1)
+    cur = np.take_along_axis(field, x[:, :1], axis=1)[:, 0]
+    return np.where(rows.mask[:, 0], np.maximum(best - cur, 0.0), 0.0)
 
 
 def profile_payoff(payoffs: GamePayoffs, profile) -> np.ndarray:

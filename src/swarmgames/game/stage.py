@@ -7,7 +7,11 @@ and the public API all call once per control period:
    split into batches of similar neighbourhood size (:func:`size_groups`);
 2. per batch: the local games (with or without virtual means, eq. 3), their payoff tables
    (the potentials, eq. 1) and their solution (the configured solver, Algorithm 1);
-3. the measurements from the tables already computed: every robot's payoff :math:`M_i` and
+3. robots whose states coincide build the same game and would take the same action for
+   ever: they get distinct actions, the order among them drawn from the stage's Generator
+   (:func:`~swarmgames.game.colocated.separate_colocated`; nothing changes, and nothing is
+   drawn, when no two robots coincide);
+4. the measurements from the tables already computed: every robot's payoff :math:`M_i` and
    local regret at the profile it settled on, and its global (stage-game) regret at the
    realised joint action. The global regret needs robot i's *true* local game (actual states,
    no virtual means): it is the solved game itself whenever no member of N_i was replaced by
@@ -34,7 +38,13 @@ import numpy as np
 from swarmgames.arrays import freeze_fields
 from swarmgames.game.actions import ActionModel
 from swarmgames.game.batch import LocalGameBatch
-from swarmgames.game.equilibrium import global_regret, local_regret, profile_payoff
+from swarmgames.game.colocated import separate_colocated
+from swarmgames.game.equilibrium import (
+    OwnerPayoffs,
+    global_regret,
+    local_regret,
+    profile_payoff,
+)
 from swarmgames.game.local import (
     Inbox,
     Messages,
@@ -163,8 +173,10 @@ def _check_buckets(buckets) -> int:
 class _Record:
     """The per-robot arrays of a stage, filled game batch by game batch."""
 
-    def __init__(self, n: int) -> None:
+    def __init__(self, n: int, n_actions: int = 0) -> None:
         self.actions = np.zeros(n, dtype=np.int64)
+        self.marginal = np.zeros((n, n_actions))
+        self.action_mask = np.zeros((n, n_actions), dtype=bool)
         self.payoff = np.zeros(n)
         self.local_regret = np.zeros(n)
         self.global_regret = np.full(n, np.nan)
@@ -237,6 +249,7 @@ def _true_measures(rec: _Record, solver, messages, groups, action_model, potenti
         rec.measure(owners, batch, pay, profile)
         rec.global_regret[owners] = global_regret(pay, rec.actions)
         integrate_s += t_int
+        del batch, pay  # this batch's table is freed before the next one is built
     return integrate_s
 
 
@@ -304,7 +317,7 @@ def solve_stage(
     >>> from swarmgames.network import TopologySnapshot
     >>> snap = TopologySnapshot.from_hop_matrix(0.0, np.array([[0, 1], [1, 0]]))
     >>> goal = FunctionPotentials(lambda s: -np.linalg.norm(s - [5.0, 0.0], axis=-1))
-    >>> stage = solve_stage(MeanFieldSolver(), snap, 1, np.zeros((2, 2)),
+    >>> stage = solve_stage(MeanFieldSolver(), snap, 1, np.array([[0.0, 0.0], [0.0, 2.0]]),
     ...                     DisplacementActions.headings(1.0, 4), goal)
     >>> stage.actions.tolist(), stage.local_regret.tolist()
     ([1, 1], [0.0, 0.0])
@@ -321,7 +334,7 @@ def solve_stage(
     source = messages if inbox is None else inbox
     groups = size_groups(source.sizes, _check_buckets(buckets), int(action_model.n_actions))
     build_s = time.perf_counter() - t0
-    rec = _Record(n)
+    rec = _Record(n, int(action_model.n_actions))
     integrate_s = solve_s = 0.0
     batches, sols = [], []
     for owners in groups:
@@ -330,6 +343,8 @@ def solve_stage(
         )
         sol = solver.solve_payoffs(pay, gen)
         rec.actions[owners] = sol.actions
+        rec.marginal[owners] = sol.marginals[:, 0]
+        rec.action_mask[owners] = pay.action_mask[:, 0]
         rec.iterations[owners] = sol.iterations
         rec.converged[owners] = sol.converged
         # The robot's own view: its local game at the profile it settled on.
@@ -338,12 +353,17 @@ def solve_stage(
         integrate_s += t_int
         solve_s += sol.solve_time_s
         if global_regret:
-            batches.append((owners, batch, pay))
+            # Only the owners' rows wait for the joint action, not the whole tables.
+            redo = np.asarray(batch.is_virtual).any(axis=1)
+            if inbox is not None:
+                redo |= ~_knows_the_truth(batch, messages.views(owners))
+            batches.append((owners, redo, None if redo.all() else OwnerPayoffs.of(pay)))
         if keep_games:
             sols.append((batch, sol))
+        del pay  # this batch's table is freed before the next one is built
+    rec.actions[:] = separate_colocated(states, rec.actions, rec.marginal, rec.action_mask, gen)
     if global_regret:
-        exact = source is messages
-        _global_regret(rec, solver, messages, batches, action_model, potentials, exact)
+        _global_regret(rec, solver, messages, batches, action_model, potentials)
     extra = {}
     if keep_games:
         extra = _in_robot_order(groups, sols)
@@ -358,23 +378,24 @@ def solve_stage(
     )
 
 
-def _global_regret(
-    rec: _Record, solver, messages, batches, action_model, potentials, exact: bool
-) -> None:
-    """Global regret from the solved games' tables where they are the true games (no virtual
-    mean, and the members and states the robot knew are the actual ones: always with exact
-    delivery, and with routed delivery wherever every message arrived unchanged); the other
-    games are rebuilt with actual states and true neighbourhoods and evaluated again."""
-    for owners, batch, pay in batches:
-        rec.global_regret[owners] = global_regret(pay, rec.actions)
-        redo = np.asarray(batch.is_virtual).any(axis=1)
-        if not exact:
-            redo |= ~_knows_the_truth(batch, messages.views(owners))
+def _global_regret(rec: _Record, solver, messages, batches, action_model, potentials) -> None:
+    """Global regret from the solved games' owner rows where they are the true games (no
+    virtual mean, and the members and states the robot knew are the actual ones: always with
+    exact delivery, and with routed delivery wherever every message arrived unchanged); the
+    other games are rebuilt with actual states and true neighbourhoods and evaluated again,
+    one batch's table at a time."""
+
+    def again(owners) -> np.ndarray:
+        _, true_pay, _, _ = evaluate_games(
+            solver, messages, owners, action_model, potentials, virtual_mean=False
+        )
+        return global_regret(true_pay, rec.actions)
+
+    for owners, redo, rows in batches:
+        if rows is not None:
+            rec.global_regret[owners] = global_regret(rows, rec.actions)
         if redo.any():
-            _, true_pay, _, _ = evaluate_games(
-                solver, messages, owners[redo], action_model, potentials, virtual_mean=False
-            )
-            rec.global_regret[owners[redo]] = global_regret(true_pay, rec.actions)
+            rec.global_regret[owners[redo]] = again(owners[redo])
 
 
 def _knows_the_truth(batch: LocalGameBatch, truth) -> np.ndarray:
@@ -419,7 +440,9 @@ def _solve_centralised(
     if getattr(solver, "action_choice", "argmax") == "sample":
         actions = sample_actions(sol.marginals[0], batch.action_mask[0], actions, gen)
     rec = _Record(n)
-    rec.actions[:] = actions
+    rec.actions[:] = separate_colocated(
+        states, actions, sol.marginals[0], batch.action_mask[0], gen
+    )
     messages, groups = plan_stage(snapshot, h, states, int(action_model.n_actions), buckets)
     _true_measures(rec, solver, messages, groups, action_model, potentials)
     rec.iterations[:] = int(sol.iterations[0])

@@ -23,13 +23,13 @@ References
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from pydantic import Field
 
-from swarmgames.errors import ConfigError
 from swarmgames.missions.geometry import close_pairs, crowding_blocks, link_components
 from swarmgames.missions.motion import TakeOff, uav_actions
 from swarmgames.missions.registry import MissionEntry
@@ -111,6 +111,33 @@ class FlockingConfig(Section):
         description="Largest speed of the robots' random initial velocities: speed uniform "
         "in [0, initial_speed_m_s], heading uniform (0 = at rest), m/s.",
     )
+
+    def check_scenario(self, scenario) -> None:
+        """The flock's state holds velocities (``swarm.action_set = 'acceleration'``), its
+        speeds stay within ``swarm.max_speed_m_s``, and the separation term is weighted by
+        ``game.alpha_b > 0``."""
+        sw = scenario.swarm
+        if sw.action_set != "acceleration":
+            raise ValueError(
+                "flocking: swarm.action_set must be 'acceleration' (velocities are the flock's "
+                f"state) (got {sw.action_set!r})"
+            )
+        goal_speed = math.hypot(*self.goal_velocity_m_s)
+        if goal_speed > sw.max_speed_m_s:
+            raise ValueError(
+                "flocking: |flocking.goal_velocity_m_s| must be <= swarm.max_speed_m_s "
+                f"(got {goal_speed:g} > {sw.max_speed_m_s:g} m/s)"
+            )
+        if self.initial_speed_m_s > sw.max_speed_m_s:
+            raise ValueError(
+                "flocking: flocking.initial_speed_m_s must be <= swarm.max_speed_m_s "
+                f"(got {self.initial_speed_m_s:g} > {sw.max_speed_m_s:g} m/s)"
+            )
+        if self.separation_m > 0 and self.separation_weight > 0 and scenario.game.alpha_b == 0:
+            raise ValueError(
+                "flocking: the separation term needs game.alpha_b > 0 (got game.alpha_b = 0); "
+                "set flocking.separation_weight = 0 to turn it off"
+            )
 
 
 @dataclass(frozen=True, eq=False)
@@ -254,9 +281,9 @@ class FlockingPotentials:
             return None
         b, k, a = np.asarray(batch.action_mask).shape
         out = np.zeros((b, k, a, k, a), dtype=dtype)
-        gb, gk, gl, pen = crowding_blocks(batch, self.separation_m)
-        phi = (-self.separation_weight / (2.0 * self.alpha_b)) * pen
-        out[gb, gk, :, gl, :] = (2.0 * phi).astype(dtype, copy=False)
+        for gb, gk, gl, pen in crowding_blocks(batch, self.separation_m):
+            phi = (-self.separation_weight / (2.0 * self.alpha_b)) * pen
+            out[gb, gk, :, gl, :] = (2.0 * phi).astype(dtype, copy=False)
         return out
 
 
@@ -379,38 +406,14 @@ class FlockingMission:
 def build(config) -> FlockingMission:
     """The flocking mission of a :class:`~swarmgames.config.ScenarioConfig`.
 
-    Raises
-    ------
-    ConfigError
-        ``swarm.action_set`` is not ``"acceleration"``; the goal or initial speed exceeds
-        ``swarm.max_speed_m_s``; the separation term is on with ``game.alpha_b = 0``.
+    The rules that span sections (action set, speeds, ``game.alpha_b``) are
+    :meth:`FlockingConfig.check_scenario`'s, checked when the configuration is validated.
     """
     from swarmgames.network.parameters import RadioParameters
     from swarmgames.network.propagation import max_range
 
     fl: FlockingConfig = config.mission
     sw = config.swarm
-    if sw.action_set != "acceleration":
-        raise ConfigError(
-            "flocking: swarm.action_set must be 'acceleration' (velocities are the flock's "
-            f"state) (got {sw.action_set!r})"
-        )
-    goal_speed = float(np.hypot(*fl.goal_velocity_m_s))
-    if goal_speed > sw.max_speed_m_s:
-        raise ConfigError(
-            "flocking: |flocking.goal_velocity_m_s| must be <= swarm.max_speed_m_s "
-            f"(got {goal_speed:g} > {sw.max_speed_m_s:g} m/s)"
-        )
-    if fl.initial_speed_m_s > sw.max_speed_m_s:
-        raise ConfigError(
-            "flocking: flocking.initial_speed_m_s must be <= swarm.max_speed_m_s "
-            f"(got {fl.initial_speed_m_s:g} > {sw.max_speed_m_s:g} m/s)"
-        )
-    if fl.separation_m > 0 and fl.separation_weight > 0 and config.game.alpha_b == 0:
-        raise ConfigError(
-            "flocking: the separation term needs game.alpha_b > 0 (got game.alpha_b = 0); set "
-            "flocking.separation_weight = 0 to turn it off"
-        )
     potentials = FlockingPotentials(
         goal_velocity=tuple(fl.goal_velocity_m_s),
         cohesion_weight=fl.cohesion_weight,

@@ -14,7 +14,13 @@ from scipy.sparse import coo_array
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-__all__ = ["close_pairs", "crowding_blocks", "link_components", "link_pairs"]
+__all__ = [
+    "CROWDING_CHUNK_ELEMS",
+    "close_pairs",
+    "crowding_blocks",
+    "link_components",
+    "link_pairs",
+]
 
 
 def _xyz(positions) -> np.ndarray:
@@ -75,14 +81,22 @@ def close_pairs(positions, distance_m: float) -> int:
     return int(np.count_nonzero(d < distance_m))
 
 
-def crowding_blocks(batch, distance_m: float):
+#: Largest (pairs, A, A) penalty block :func:`crowding_blocks` computes at once, entries;
+#: its temporaries hold three times as many values (the coordinate differences).
+CROWDING_CHUNK_ELEMS = 2_000_000
+
+
+def crowding_blocks(batch, distance_m: float, max_elems: int = CROWDING_CHUNK_ELEMS):
     """The crowding penalty :math:`\\max(0, 1 - \\lVert p_k(a) - p_l(c) \\rVert / d)^2` of
     every pair of distinct valid variables of a game that can come within ``d`` of each
-    other, for every pair of their actions.
+    other, for every pair of their actions, in chunks of pairs.
 
     Only pairs whose current positions are closer than :math:`d + 2 s` (``s`` the longest
     move of the batch) can be penalised, so only their ``(A, A)`` blocks are computed: the
-    cost grows with the number of close pairs, not with K².
+    cost grows with the number of close pairs, not with K². The blocks come in chunks of at
+    most ``max_elems`` entries, so a dense neighbourhood (every pair close, K = 300) needs
+    tens of megabytes, not the ``B K² A²``-sized temporaries of one block; each pair's values
+    do not depend on the chunking.
 
     Parameters
     ----------
@@ -91,11 +105,14 @@ def crowding_blocks(batch, distance_m: float):
         first three state columns.
     distance_m : float
         d, the distance below which next positions are penalised, metres (> 0).
+    max_elems : int, default CROWDING_CHUNK_ELEMS
+        Most penalty entries ``P A²`` per chunk (at least one pair per chunk).
 
-    Returns
-    -------
+    Yields
+    ------
     games, first, second : ndarray of int, shape (P,)
-        Each pair as (game, variable k, variable l); both orders of a pair are listed.
+        Each pair as (game, variable k, variable l); both orders of a pair are listed, and
+        every pair is in exactly one chunk.
     penalty : ndarray, shape (P, A, A)
         ``penalty[p, a, c]`` for k taking a and l taking c, in [0, 1]; values at invalid
         actions are meaningless.
@@ -103,7 +120,7 @@ def crowding_blocks(batch, distance_m: float):
     mask = np.asarray(batch.mask, dtype=bool)
     states = np.asarray(batch.states, dtype=float)[..., :3]
     nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
-    k = mask.shape[1]
+    k, a = mask.shape[1], nxt.shape[2]
     amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
     disp = np.linalg.norm(nxt - states[:, :, None, :], axis=-1)
     s_max = float(disp[amask].max(initial=0.0))
@@ -111,5 +128,17 @@ def crowding_blocks(batch, distance_m: float):
     gap = np.linalg.norm(states[gb, gk] - states[gb, gl], axis=-1)
     near = gap < distance_m + 2.0 * s_max + 1e-9
     gb, gk, gl = gb[near], gk[near], gl[near]
-    d = np.linalg.norm(nxt[gb, gk][:, :, None, :] - nxt[gb, gl][:, None, :, :], axis=-1)
-    return gb, gk, gl, np.maximum(0.0, 1.0 - d / distance_m) ** 2
+    step = max(1, int(max_elems) // max(1, a * a))
+    for lo in range(0, gb.size, step):
+        cb, ck, cl = gb[lo : lo + step], gk[lo : lo + step], gl[lo : lo + step]
+        p, q = nxt[cb, ck], nxt[cb, cl]  # (P, A, 3)
+        # |p - q| summed x, y, z from left to right: np.linalg.norm's values, bit for bit,
+        # without its (P, A, A, 3) temporaries.
+        d = np.square(p[:, :, None, 0] - q[:, None, :, 0])
+        for c in (1, 2):
+            d += np.square(p[:, :, None, c] - q[:, None, :, c])
+        np.sqrt(d, out=d)
+        d /= distance_m
+        np.subtract(1.0, d, out=d)
+        np.maximum(d, 0.0, out=d)
+        yield cb, ck, cl, np.square(d, out=d)

@@ -32,6 +32,7 @@ __all__ = [
     "TakeOff",
     "arena_for",
     "disc_states",
+    "takeoff_radius",
     "uav_actions",
 ]
 
@@ -293,10 +294,47 @@ def uav_actions(swarm, period_s: float, bounds=None) -> HeadingActions | Acceler
     return HeadingActions(swarm.step_m, swarm.n_headings, bounds)
 
 
+def takeoff_radius(n_robots: int, radius_m: float, max_neighbours: int, range_m: float) -> float:
+    """Radius of the take-off disc of ``n_robots`` UAVs: ``radius_m``, grown for a large
+    swarm so that a UAV has on average at most ``max_neighbours`` others within
+    ``range_m``.
+
+    .. math:: R(N) = \\begin{cases} R_0 & N - 1 \\le M \\\\
+              \\max\\bigl(R_0,\\ r \\sqrt{(N - 1) / M}\\bigr) & N - 1 > M \\end{cases}
+
+    In a uniform disc of radius :math:`R \\ge r` a UAV has about :math:`(N - 1) r^2 / R^2`
+    others within r (fewer near the edge), so the disc holds at most M per radio range
+    however large N; a swarm of at most M + 1 UAVs keeps ``radius_m`` (it is one clique
+    anyway: every UAV within range of every other).
+
+    Parameters
+    ----------
+    n_robots : int
+        N.
+    radius_m : float
+        :math:`R_0`, ``swarm.start_radius_m``, metres.
+    max_neighbours : int
+        M, ``swarm.start_max_neighbours``; 0 keeps ``radius_m`` whatever N.
+    range_m : float
+        r, ``swarm.start_neighbour_range_m`` (the default radio range), metres.
+
+    Examples
+    --------
+    >>> takeoff_radius(7, 25.0, 20, 368.84)
+    25.0
+    >>> round(takeoff_radius(1000, 25.0, 20, 368.84))
+    2607
+    """
+    if max_neighbours <= 0 or n_robots - 1 <= max_neighbours:
+        return float(radius_m)
+    return max(float(radius_m), float(range_m) * float(np.sqrt((n_robots - 1) / max_neighbours)))
+
+
 @dataclass(frozen=True)
 class TakeOff:
-    """The common take-off disc of a swarm (``swarm.start_center_m``, ``start_radius_m``,
-    ``altitude_m``), shared by every built-in mission.
+    """The common take-off disc of a swarm (``swarm.start_center_m``, ``altitude_m`` and the
+    radius :func:`takeoff_radius` gives ``swarm.n_robots``), shared by every built-in
+    mission.
 
     Examples
     --------
@@ -311,8 +349,15 @@ class TakeOff:
 
     @classmethod
     def of(cls, swarm) -> TakeOff:
-        """The take-off disc of a :class:`~swarmgames.config.SwarmConfig`."""
-        return cls(tuple(swarm.start_center_m), swarm.start_radius_m, swarm.altitude_m)
+        """The take-off disc of a :class:`~swarmgames.config.SwarmConfig` (its radius grown
+        for ``n_robots`` by :func:`takeoff_radius`)."""
+        radius = takeoff_radius(
+            swarm.n_robots,
+            swarm.start_radius_m,
+            swarm.start_max_neighbours,
+            swarm.start_neighbour_range_m,
+        )
+        return cls(tuple(swarm.start_center_m), radius, swarm.altitude_m)
 
     def states(self, n: int, rng: np.random.Generator, state_dim: int = 3) -> np.ndarray:
         """``n`` UAVs uniform over the disc, at rest (:func:`disc_states`)."""

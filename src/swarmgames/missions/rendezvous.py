@@ -126,6 +126,14 @@ class RendezvousConfig(Section):
         ),
     )
 
+    def check_scenario(self, scenario) -> None:
+        """The link term is weighted by ``game.alpha_b``, which must then be > 0."""
+        if self.link_weight > 0 and scenario.game.alpha_b == 0:
+            raise ValueError(
+                "rendezvous: the link term needs game.alpha_b > 0 (got game.alpha_b = 0): set "
+                "rendezvous.link_weight = 0 or game.alpha_b > 0"
+            )
+
 
 def _pair_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.sqrt(np.sum((a - b) ** 2, axis=-1))
@@ -381,8 +389,9 @@ def build(config) -> RendezvousMission:
         raise ConfigError(f"rendezvous: {exc}") from None
     potentials = Inertia(base, rv.move_cost) if rv.move_cost else base
     sw = config.swarm
+    takeoff = TakeOff.of(sw)
     bounds = _box(
-        rv.goal_m, rv.gather_radius_m, sw.start_center_m, sw.start_radius_m, sw.arena_margin_m
+        rv.goal_m, rv.gather_radius_m, takeoff.center_m, takeoff.radius_m, sw.arena_margin_m
     )
     return RendezvousMission(
         potentials=potentials,
@@ -390,7 +399,7 @@ def build(config) -> RendezvousMission:
         goal_m=tuple(rv.goal_m),
         gather_radius_m=rv.gather_radius_m,
         radio=radio,
-        takeoff=TakeOff.of(sw),
+        takeoff=takeoff,
     )
 
 

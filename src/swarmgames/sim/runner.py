@@ -21,6 +21,7 @@ from swarmgames.missions import Mission, get_mission
 from swarmgames.sim.controllers import make_controller
 from swarmgames.sim.faults import Faults
 from swarmgames.sim.loop import StageLog, StageLoop, drive
+from swarmgames.sim.memory import check_memory
 from swarmgames.sim.progress import ProgressBar
 from swarmgames.sim.result import RunResult
 from swarmgames.sim.signals import signals_interrupt
@@ -140,7 +141,9 @@ def run(
     Raises
     ------
     ConfigError
-        An invalid configuration (the message names the field, the rule and the value).
+        An invalid configuration (the message names the field, the rule and the value); a
+        :class:`~swarmgames.sim.memory.MemoryLimitError` when the run's estimated peak memory
+        exceeds ``sim.memory_limit_gib``.
     TypeError
         ``mission`` does not have the attributes of :class:`~swarmgames.missions.Mission`.
     """
@@ -154,6 +157,7 @@ def run(
         "custom_provider": None if provider is None else getattr(provider, "name", "?"),
     }
     mission = _check_mission(config, mission)
+    check_memory(config, mission)  # refuse a run that cannot fit, before it starts
     # SIGTERM and SIGHUP (kill, timeout, schedulers, a closed terminal) stop the run like
     # Ctrl-C: the completed stages are kept and written.
     with signals_interrupt():

@@ -12,6 +12,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
+from swarmgames.missions.coverage.roi import grid_problem
 from swarmgames.section import Section
 
 __all__ = ["CoverageConfig"]
@@ -116,4 +117,19 @@ class CoverageConfig(Section):
             raise ValueError(
                 f"roi_cov_m2 must be symmetric positive definite (got {self.roi_cov_m2})"
             )
+        problem = grid_problem(
+            self.roi_cov_m2, self.confidence, self.grid_cell_m, name="grid_cell_m"
+        )
+        if problem is not None:
+            raise ValueError(problem)
         return self
+
+    def check_scenario(self, scenario) -> None:
+        """The pairwise crowding penalty is weighted by ``game.alpha_b``, which must be > 0."""
+        crowding = self.separation_m > 0 and self.separation_cost_db > 0
+        if crowding and self.separation_mode == "pairwise" and scenario.game.alpha_b == 0:
+            raise ValueError(
+                "game.alpha_b must be > 0 for the pairwise crowding penalty "
+                "(coverage.separation_mode = 'pairwise') (got game.alpha_b = 0); set "
+                "coverage.separation_mode = 'unary' or coverage.separation_cost_db = 0"
+            )

@@ -119,12 +119,13 @@ def build(config) -> CoverageMission:
         raise ConfigError(f"coverage: {exc}") from None
     potentials = Inertia(base, cov.move_cost_db * roi.mass) if cov.move_cost_db else base
     sw = config.swarm
-    bounds = arena_for(roi, sw.start_center_m, sw.start_radius_m, sw.arena_margin_m)
+    takeoff = TakeOff.of(sw)
+    bounds = arena_for(roi, takeoff.center_m, takeoff.radius_m, sw.arena_margin_m)
     return CoverageMission(
         potentials=potentials,
         action_model=uav_actions(sw, config.sim.control_period_s, bounds),
         roi=roi,
-        takeoff=TakeOff.of(sw),
+        takeoff=takeoff,
     )
 
 

@@ -262,6 +262,8 @@ class CoveragePotentials:
         w = self.roi.weights.astype(np.float32)
         G = w.size
         step = max(1, self.chunk_elems // max(1, K * A * G))
+        # A game whose (K, A, G) block alone exceeds the chunk takes its variables in slices.
+        kstep = K if step > 1 else max(1, self.chunk_elems // max(1, A * G))
         neg = np.float32(-np.inf)
         for lo in range(0, B, step):
             hi = min(B, lo + step)
@@ -271,15 +273,18 @@ class CoveragePotentials:
             rest = cur.copy()
             np.put_along_axis(rest, best_k[:, None, :], neg, axis=1)
             second = rest.max(axis=1, keepdims=True)  # (b, 1, G)
-            holds_best = best_k[:, None, :] == np.arange(K)[None, :, None]
-            other = np.where(holds_best, second, best)  # (b, K, G): max over l != k
-            f = fields[nxt_idx[lo:hi]]  # (b, K, A, G)
-            o = other[:, :, None, :]
-            val = np.maximum(f, o)
-            if self.softness_db > 0:
-                tau = np.float32(self.softness_db)
-                val += tau * np.log1p(np.exp(-np.abs(f - o) / tau))
-            out[lo:hi] = val @ w
+            del cur, rest
+            for k0 in range(0, K, kstep):
+                k1 = min(K, k0 + kstep)
+                holds_best = best_k[:, None, :] == np.arange(k0, k1)[None, :, None]
+                other = np.where(holds_best, second, best)  # (b, k, G): max over l != k
+                f = fields[nxt_idx[lo:hi, k0:k1]]  # (b, k, A, G)
+                o = other[:, :, None, :]
+                val = np.maximum(f, o)
+                if self.softness_db > 0:
+                    tau = np.float32(self.softness_db)
+                    val += tau * np.log1p(np.exp(-np.abs(f - o) / tau))
+                out[lo:hi, k0:k1] = val @ w
 
     def _crowding(self, mask, states, nxt) -> np.ndarray:
         """Separation penalty of every next state against the others' current states,
@@ -315,12 +320,11 @@ class CoveragePotentials:
 
         Only variable pairs closer than :math:`d_{sep} + 2 s` (``s`` the longest move) can be
         penalised, so the (A, A) blocks of those pairs only are computed."""
-        gb, gk, gl, pen = crowding_blocks(batch, self.separation_m)  # pen: (P, A, A)
-        if gb.size == 0:
-            return
         B, K, A = np.asarray(batch.action_mask).shape
         scale = 2.0 * self.separation_cost_db * self.roi.mass / self.alpha_b
-        out.reshape(B, K, A, K, A)[gb, gk, :, gl, :] -= (scale * pen).astype(out.dtype)
+        table = out.reshape(B, K, A, K, A)
+        for gb, gk, gl, pen in crowding_blocks(batch, self.separation_m):  # pen: (P, A, A)
+            table[gb, gk, :, gl, :] -= (scale * pen).astype(out.dtype)
 
     def pairwise(self, batch) -> np.ndarray:
         """:math:`\\phi_p(k, x_k, l, x_l)` of eq. 6, shape (B, K, K, A, A); 0 on the diagonal
@@ -332,17 +336,26 @@ class CoveragePotentials:
         B, K, A = amask.shape
         out = np.zeros((B, K, K, A, A))
         step = max(1, self.chunk_elems // max(1, K * K * A * A))
+        # One game larger than the chunk (the centralised game: K = N) in slices of k.
+        kstep = K if step > 1 else max(1, self.chunk_elems // max(1, K * A * A))
         off_diag = ~np.eye(K, dtype=bool)[None, :, :, None, None]
         for lo in range(0, B, step):
             hi = min(B, lo + step)
-            a = nxt[lo:hi, :, None, :, None, :]  # (b, K, 1, A, 1, 3)
             b = nxt[lo:hi, None, :, None, :, :]  # (b, 1, K, 1, A, 3)
-            val = self.signal.link(a, b)
-            if self._crowding_on and self.separation_mode == "pairwise":
-                pen = np.maximum(0.0, 1.0 - np.linalg.norm(a - b, axis=-1) / self.separation_m)
-                val = val - (self.separation_cost_db * self.roi.mass / self.alpha_b) * pen**2
-            ok = amask[lo:hi, :, None, :, None] & amask[lo:hi, None, :, None, :] & off_diag
-            out[lo:hi] = np.where(ok, val, 0.0)
+            for k0 in range(0, K, kstep):
+                k1 = min(K, k0 + kstep)
+                a = nxt[lo:hi, k0:k1, None, :, None, :]  # (b, k, 1, A, 1, 3)
+                val = self.signal.link(a, b)
+                if self._crowding_on and self.separation_mode == "pairwise":
+                    gap = np.linalg.norm(a - b, axis=-1)
+                    pen = np.maximum(0.0, 1.0 - gap / self.separation_m)
+                    val = val - (self.separation_cost_db * self.roi.mass / self.alpha_b) * pen**2
+                ok = (
+                    amask[lo:hi, k0:k1, None, :, None]
+                    & amask[lo:hi, None, :, None, :]
+                    & off_diag[:, k0:k1]
+                )
+                out[lo:hi, k0:k1] = np.where(ok, val, 0.0)
         return out
 
     def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
@@ -391,16 +404,21 @@ class CoveragePotentials:
             if self._crowding_on and self.separation_mode == "pairwise":
                 self._add_pair_crowding(out, batch)
             return out.reshape(B, K, A, K, A)
+        # A game whose (K A)² table alone exceeds the chunk is done in blocks of rows (one
+        # K = 300 game: 58 MB per temporary otherwise); every entry is computed alike.
+        rows = K * A if step > 1 else max(1, self.chunk_elems // 4 // max(1, K * A))
         for lo in range(0, B, step):
             hi = min(B, lo + step)
             p = pts[lo:hi]
-            diff = p[:, :, None, 0] - p[:, None, :, 0]
-            d2 = diff * diff
-            for c in (1, 2):
-                diff = p[:, :, None, c] - p[:, None, :, c]
-                d2 += diff * diff
-            val = sig.power_sq(d2.astype(dtype, copy=False), dtype=dtype.type)
-            np.add(val, val, out=out[lo:hi])
+            for r0 in range(0, K * A, rows):
+                q = p[:, r0 : r0 + rows]
+                diff = q[:, :, None, 0] - p[:, None, :, 0]
+                d2 = diff * diff
+                for c in (1, 2):
+                    diff = q[:, :, None, c] - p[:, None, :, c]
+                    d2 += diff * diff
+                val = sig.power_sq(d2.astype(dtype, copy=False), dtype=dtype.type)
+                np.add(val, val, out=out[lo:hi, r0 : r0 + rows])
         if self._crowding_on and self.separation_mode == "pairwise":
             self._add_pair_crowding(out, batch)
         return out.reshape(B, K, A, K, A)

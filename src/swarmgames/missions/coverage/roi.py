@@ -26,7 +26,40 @@ import numpy as np
 
 from swarmgames.arrays import frozen
 
-__all__ = ["GaussianROI"]
+__all__ = ["MAX_CELLS", "GaussianROI", "grid_problem"]
+
+
+#: Most grid cells of the ROI's bounding box (4 M cells: 64 MB per float32 field row).
+MAX_CELLS = 4_000_000
+
+
+def grid_problem(
+    cov, confidence: float, cell_m: float, max_cells: int = MAX_CELLS, name: str = "cell_m"
+) -> str | None:
+    """Why cells of ``cell_m`` cannot grid the ROI of ``cov`` at ``confidence``, or None.
+
+    The cell must be at most the ellipse's shortest semi-axis, and the bounding box may hold
+    at most ``max_cells`` cells; ``name`` is the parameter the message names (the
+    configuration says ``coverage.grid_cell_m``).
+
+    Examples
+    --------
+    >>> grid_problem(((62500.0, 0.0), (0.0, 62500.0)), 0.95, 1000.0, name="grid_cell_m")
+    "grid_cell_m must be <= the ROI's shortest semi-axis, 611.9 m (got 1000.0)"
+    """
+    cov = np.asarray(cov, dtype=float)
+    k2 = -2.0 * np.log1p(-confidence)
+    shortest = float(np.sqrt(k2 * np.linalg.eigvalsh(cov)[0]))
+    if cell_m > shortest:
+        return f"{name} must be <= the ROI's shortest semi-axis, {shortest:.1f} m (got {cell_m})"
+    n_axis = np.ceil(2.0 * np.sqrt(k2 * np.diag(cov)) / cell_m)
+    cells = float(np.prod(n_axis))
+    if cells > max_cells:
+        return (
+            f"{name} = {cell_m} m gives about {int(cells):,} grid cells, more than "
+            f"{max_cells:,}; choose a larger cell (got {cell_m})"
+        )
+    return None
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,7 +104,7 @@ class GaussianROI:
     cov: np.ndarray
     confidence: float
     cell_m: float
-    max_cells: int = 4_000_000
+    max_cells: int = MAX_CELLS
     k2: float = field(init=False)
     points: np.ndarray = field(init=False, repr=False)
     weights: np.ndarray = field(init=False, repr=False)
@@ -89,21 +122,13 @@ class GaussianROI:
             raise ValueError(f"confidence must be in (0, 1) (got {self.confidence})")
         if not self.cell_m > 0:
             raise ValueError(f"cell_m must be > 0 (got {self.cell_m})")
+        problem = grid_problem(cov, self.confidence, self.cell_m, self.max_cells)
+        if problem is not None:
+            raise ValueError(problem)
         k2 = -2.0 * np.log1p(-self.confidence)
-        shortest = float(np.sqrt(k2 * np.linalg.eigvalsh(cov)[0]))
-        if self.cell_m > shortest:
-            raise ValueError(
-                f"cell_m must be <= the ROI's shortest semi-axis, {shortest:.1f} m "
-                f"(got {self.cell_m})"
-            )
         # Bounding box of the ellipse: half-widths k * sqrt(Sigma_ii).
         half = np.sqrt(k2 * np.diag(cov))
         n_axis = np.ceil(2.0 * half / self.cell_m).astype(int)
-        if np.prod(n_axis.astype(float)) > self.max_cells:
-            raise ValueError(
-                f"cell_m = {self.cell_m} m gives about {int(np.prod(n_axis)):,} grid cells, "
-                f"more than max_cells = {self.max_cells:,}; choose a larger cell"
-            )
         # Cell centres on a grid centred on the mean (symmetric about it).
         axes = [(np.arange(n) - (n - 1) / 2.0) * self.cell_m for n in n_axis]
         gx, gy = np.meshgrid(axes[0], axes[1], indexing="xy")

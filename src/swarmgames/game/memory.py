@@ -1,0 +1,148 @@
+"""Peak memory of one stage, predicted from its sizes before anything is allocated.
+
+A stage (:func:`~swarmgames.game.stage.solve_stage`) holds at once, for its largest batch of
+local games (:func:`~swarmgames.game.stage.size_groups`: at most ``max_pair_elems`` pairwise
+entries, or one game when a single game is larger):
+
+* the pairwise table, ``B K² A²`` entries in the solver's dtype;
+* the largest working blocks: the unary integral's (before the pairwise table exists), the
+  pairwise potentials' (beside it) or the measurement's gathers of it (beside it); the
+  mission says how much its potentials need (``unary_bytes``, ``pair_work_bytes``);
+* for the global regret, every robot's owner row until the joint action is known,
+  ``N K A²`` entries;
+* the centralised game (one game of ``(N A)²`` entries, built through the dense
+  ``(1, N, N, A, A)`` pairwise form, about 20 bytes per entry);
+* the inboxes and the batch's states, ``N K`` and ``B K A`` rows of ``D`` values.
+
+Each part is an upper estimate of what the code allocates; ``tests/sim/test_memory.py``
+checks the total against measured peaks (tracemalloc) of stages from 7 to 150 robots.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["GIB", "MemoryEstimate", "stage_memory"]
+
+#: Bytes in a gibibyte.
+GIB = float(2**30)
+
+#: Bytes per ``B K² A`` entry of the measurement's gathers of the pairwise table and of the
+#: evaluation's validity masks (five int64/float64 arrays, one float64 and one bool mask).
+_GATHER_BYTES = 57.0
+
+
+@dataclass(frozen=True)
+class MemoryEstimate:
+    """Predicted peak memory, by part.
+
+    Parameters
+    ----------
+    parts : tuple of (str, float)
+        ``(what, bytes)`` of every part, largest first.
+    n_vars : int
+        K, the neighbourhood size the estimate assumed.
+    batch_games : int
+        B, the local games of the largest batch.
+
+    Examples
+    --------
+    >>> est = stage_memory(300, 300, 9)
+    >>> est.batch_games, round(est.total_gib, 2)
+    (3, 0.35)
+    """
+
+    parts: tuple[tuple[str, float], ...]
+    n_vars: int
+    batch_games: int
+
+    @property
+    def total_bytes(self) -> float:
+        """Sum of the parts, bytes."""
+        return float(sum(b for _, b in self.parts))
+
+    @property
+    def total_gib(self) -> float:
+        """Sum of the parts, GiB."""
+        return self.total_bytes / GIB
+
+    def largest(self) -> tuple[str, float]:
+        """The largest part, ``(what, bytes)``."""
+        return self.parts[0]
+
+    def with_part(self, what: str, nbytes: float) -> MemoryEstimate:
+        """A copy with one more part."""
+        parts = sorted((*self.parts, (what, float(nbytes))), key=lambda p: -p[1])
+        return MemoryEstimate(tuple(parts), self.n_vars, self.batch_games)
+
+    def describe(self, n: int = 3) -> str:
+        """``"1.2 GiB (pairwise tables 0.8 GiB, ...)"``: the total and the ``n`` largest
+        parts."""
+        top = ", ".join(f"{w} {b / GIB:.2g} GiB" for w, b in self.parts[:n] if b > 0)
+        return f"{self.total_gib:.3g} GiB ({top})"
+
+
+def stage_memory(
+    n_robots: int,
+    n_vars: int,
+    n_actions: int,
+    *,
+    state_dim: int = 3,
+    itemsize: int = 8,
+    global_regret: bool = True,
+    centralised: bool = False,
+    unary_bytes: float = 0.0,
+    pair_work_bytes: float = 0.0,
+    max_pair_elems: int | None = None,
+) -> MemoryEstimate:
+    """Predicted peak memory of one stage of ``n_robots`` local games.
+
+    Parameters
+    ----------
+    n_robots : int
+        N.
+    n_vars : int
+        K, the padded neighbourhood size (owner included) of the largest games, <= N.
+    n_actions : int
+        A.
+    state_dim : int, default 3
+        D.
+    itemsize : int, default 8
+        Bytes of one payoff entry (``game.dtype``: 8 for float64, 4 for float32).
+    global_regret : bool, default True
+        The stage keeps every owner's row for the global regret.
+    centralised : bool, default False
+        One swarm-wide game is solved (then every robot's true local game is measured).
+    unary_bytes, pair_work_bytes : float, default 0
+        The potentials' working memory for one batch, bytes: of the unary (the coverage
+        integral's chunks) and beside the pairwise table (the crowding penalty's blocks).
+    max_pair_elems : int, optional
+        The stage's batch budget (default :data:`~swarmgames.game.stage.MAX_PAIR_ELEMS`).
+
+    Returns
+    -------
+    MemoryEstimate
+    """
+    from swarmgames.game.stage import MAX_PAIR_ELEMS
+
+    budget = MAX_PAIR_ELEMS if max_pair_elems is None else int(max_pair_elems)
+    n, k, a = int(n_robots), max(1, min(int(n_vars), int(n_robots))), int(n_actions)
+    per_game = float(k * k * a * a)
+    games = n if n * per_game <= budget else max(1, min(n, int(budget // per_game)))
+    entries = games * per_game
+    table = entries * itemsize
+    # The unary integral runs before the pairwise table exists; the pairwise blocks and the
+    # measurement's gathers (int64 indices, values, masks) each run beside the table.
+    gathers = entries / a * _GATHER_BYTES
+    work = max(float(unary_bytes) - table, float(pair_work_bytes), gathers)
+    parts = {
+        "pairwise tables of one batch": table,
+        "working blocks (unary integral, pairwise blocks or measurement)": work,
+        "states of one batch and the inboxes": 8.0 * (state_dim + 2) * (3 * games * k * a + n * k),
+    }
+    if global_regret and not centralised:
+        parts["owner rows kept for the global regret"] = float(n) * k * a * a * itemsize
+    if centralised:
+        parts["the centralised game"] = 20.0 * (n * a) ** 2
+    ordered = tuple(sorted(parts.items(), key=lambda p: -p[1]))
+    return MemoryEstimate(ordered, k, games)
