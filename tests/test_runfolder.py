@@ -214,7 +214,7 @@ def test_cli_run_with_a_full_disk_exits_1_with_one_line(tmp_path, monkeypatch):
 
     from swarmgames.cli import cli
 
-    _disk_full_on(monkeypatch, "metrics.csv")
+    _disk_full_on(monkeypatch, "summary.json")
     res = CliRunner().invoke(
         cli,
         [
@@ -231,3 +231,27 @@ def test_cli_run_with_a_full_disk_exits_1_with_one_line(tmp_path, monkeypatch):
     assert res.exit_code == 1, res.output
     assert res.output.startswith("Error: cannot write ") and "No space left on device" in res.output
     assert len(res.output.strip().splitlines()) == 1 and "Traceback" not in res.output
+
+
+def test_an_appended_table_on_a_full_disk_keeps_whole_chunks_and_says_so(tmp_path, monkeypatch):
+    import errno
+
+    from swarmgames.errors import OutputWriteError
+    from swarmgames.runfolder import AppendFile
+
+    table = AppendFile(tmp_path / "metrics.csv")
+    table.append(b"t,robot\n0,1\n")
+    real_write = os.write
+
+    def write(fd, data):  # half of the chunk fits, then the disk is full
+        if fd == table._fd and len(data) > 4:
+            real_write(fd, bytes(data[:4]))
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real_write(fd, data)
+
+    monkeypatch.setattr(os, "write", write)
+    with pytest.raises(OutputWriteError, match=r"cannot write .*metrics.csv: No space left"):
+        table.append(b"1,1\n2,1\n")
+    monkeypatch.undo()
+    table.close()
+    assert (tmp_path / "metrics.csv").read_bytes() == b"t,robot\n0,1\n"

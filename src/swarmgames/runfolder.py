@@ -165,11 +165,24 @@ class AppendFile:
         os.lseek(self._fd, self.size, os.SEEK_SET)
 
     def append(self, data: bytes) -> None:
-        """Append ``data`` (``write`` until all of it is written)."""
+        """Append ``data`` (``write`` until all of it is written).
+
+        Raises
+        ------
+        OutputWriteError
+            The system refused (disk full, quota, I/O error): the file is cut back to the
+            chunks before this one, and the error names the file and the reason.
+        """
         view = memoryview(data)
-        while view:
-            done = os.write(self._fd, view)
-            view = view[done:]
+        try:
+            while view:
+                done = os.write(self._fd, view)
+                view = view[done:]
+        except OSError as exc:
+            with contextlib.suppress(OSError):  # no half chunk is left behind
+                os.ftruncate(self._fd, self.size)
+                os.lseek(self._fd, self.size, os.SEEK_SET)
+            raise _write_error(self.path, exc) from None
         self.size += len(data)
 
     def sync(self) -> None:
