@@ -434,6 +434,13 @@ def sweep(
         sys.exit(EXIT_FAILED)
 
 
+def _estimate(mean: float, low: float, high: float) -> str:
+    """``mean [low, high]``, the interval left out where it is undefined (one run)."""
+    import math
+
+    return f"{mean:.4g}" if math.isnan(low) else f"{mean:.4g} [{low:.4g}, {high:.4g}]"
+
+
 def _sweep_table(results, metrics: list[str]):
     """Mean and 95 % interval of the plotted metrics per combination, as a rich Table."""
     from rich.table import Table
@@ -451,9 +458,7 @@ def _sweep_table(results, metrics: list[str]):
     rows = agg[agg["metric"].isin(shown)]
     for key, group in rows.groupby(factors, sort=False) if factors else [((), rows)]:
         levels = dict(zip(factors, key, strict=True))
-        cells = {
-            r.metric: f"{r.mean:.4g} [{r.ci_low:.4g}, {r.ci_high:.4g}]" for r in group.itertuples()
-        }
+        cells = {r.metric: _estimate(r.mean, r.ci_low, r.ci_high) for r in group.itertuples()}
         table.add_row(
             *(str(levels[c]) for c in varied),
             str(group["n"].max()),
