@@ -120,7 +120,7 @@ def _results(plan: SweepPlan, outcomes: Sequence[Mapping[str, Any] | None]) -> p
                 **factors,
                 "seed": point.seed,
                 "status": outcome["status"],
-                "error": outcome["error"],
+                "error": outcome["error"] or None,
                 "folder": f"{RUNS}/{point.folder}",
                 **summary,
             }
