@@ -181,11 +181,16 @@ def _in_process(tasks: Sequence[RunTask], on_done: OnDone) -> bool:
     return False
 
 
-def _init_worker(stop, pids) -> None:
+def _init_worker(stop, pids, threads: int) -> None:
     """Start a pool worker: it stops only when the sweep tells it (SIGTERM while it runs a
-    task, the stop event before it starts one), not on the terminal's Ctrl-C."""
+    task, the stop event before it starts one), not on the terminal's Ctrl-C; its compiled
+    kernels share the CPUs with the other workers (``threads`` each) instead of each taking
+    them all."""
+    import numba
+
     global _STOP
     _STOP = stop
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     for sig in (signal.SIGINT, *INTERRUPT_SIGNALS):
         signal.signal(sig, signal.SIG_IGN)
     pids.put(os.getpid())
@@ -210,7 +215,7 @@ def _in_processes(tasks: Sequence[RunTask], on_done: OnDone, jobs: int) -> bool:
         max_workers=min(jobs, len(tasks)),
         mp_context=ctx,
         initializer=_init_worker,
-        initargs=(stop, pids),
+        initargs=(stop, pids, max(1, default_jobs() // jobs)),
     )
     index = {pool.submit(execute, task): i for i, task in enumerate(tasks)}
     pending = set(index)
