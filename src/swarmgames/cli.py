@@ -316,7 +316,7 @@ def reproduce(
     multiple=True,
     metavar="SECTION.FIELD=V1,V2,...",
     help="A factor and its values (repeatable): TOML values as in `run --set`, split at the "
-    "commas outside brackets and quotes, e.g. --set faults.crash=[[5.0,1]],[].",
+    "commas outside brackets and quotes, e.g. --set 'faults.crash=[[5.0,1]],[]'.",
 )
 @click.option(
     "--seeds", default="0,1,2", show_default=True, metavar="S,S,...", help="Seeds of every point."
@@ -391,7 +391,7 @@ def sweep(
       swarmgames sweep coverage-oracle --set comms.loss_rate=0.0,0.2 \\
           --set network.backend=olsr,oracle --jobs 2 --out runs/loss
       swarmgames sweep --set swarm.n_robots=5,10 --set game.beta=1.0,2.0 --zip --out runs/z
-      swarmgames sweep --set faults.crash=[],[[30.0,0]] --metric median_global_regret \\
+      swarmgames sweep --set 'faults.crash=[],[[30.0,0]]' --metric median_global_regret \\
           --out runs/crash
       swarmgames sweep --executor ray --address auto --set swarm.n_robots=10,20 --out /shared/s
     """

@@ -78,7 +78,6 @@ def test_assignments_are_read_as_set_reads_a_value():
         (["swarm.n_robots"], "must look like section.field=v1,v2"),
         (["=5"], "must look like section.field=v1,v2"),
         (["swarm.n_robots=5", "swarm.n_robots=7"], "swarm.n_robots: is given by two --set"),
-        (["swarm.n_robots=5,7,5"], "swarm.n_robots: value 5 is given twice"),
         (["seed=1,2"], "seed: the seeds of a sweep are given by --seeds"),
         (["faults.crash=[[5.0,1]"], "faults.crash: missing closing ']'"),
         (["swarm={n_robots=5}"], "swarm: a table cannot be a level"),
@@ -136,6 +135,19 @@ def test_zip_pairs_the_levels_and_a_single_level_goes_with_every_pair():
     )
     got = [tuple(v for _, v in p.values) for p in plan.points]
     assert got == [(3, 1.0, "oracle"), (4, 2.0, "oracle"), (5, 3.0, "oracle")]
+
+
+def test_a_repeated_level_is_an_error_but_zip_may_repeat_a_factors_value():
+    with pytest.raises(
+        ConfigError, match=r"swarm.n_robots: value 5 is given twice \(got 5, 7, 5\)"
+    ):
+        _plan({"swarm.n_robots": [5, 7, 5]})
+    plan = _plan({"swarm.n_robots": [5, 7], "game.beta": [1.0, 1.0]}, zipped=True)
+    assert [tuple(v for _, v in p.values) for p in plan.points] == [(5, 1.0), (7, 1.0)]
+    with pytest.raises(
+        ConfigError, match=r"--zip: the combination swarm\.n_robots=5, game\.beta=1\.0 is"
+    ):
+        _plan({"swarm.n_robots": [5, 5], "game.beta": [1.0, 1.0]}, zipped=True)
 
 
 def test_zip_needs_the_same_number_of_levels():

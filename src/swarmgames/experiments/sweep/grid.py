@@ -170,12 +170,17 @@ def _factor(path: str, levels: Sequence[Any], what: str) -> Factor:
     frozen = tuple(_frozen(v, path) for v in levels)
     if not frozen:
         raise ConfigError(f"{path}: needs at least one value (got {what})")
-    seen = set()
-    for v in frozen:
-        if v in seen:
-            raise ConfigError(f"{path}: value {toml_literal(v)} is given twice (got {what})")
-        seen.add(v)
     return Factor(path, frozen)
+
+
+def _first_repeat(items: Sequence[Any]) -> Any:
+    """The first item equal to an earlier one, or None."""
+    seen: set = set()
+    for item in items:
+        if item in seen:
+            return item
+        seen.add(item)
+    return None
 
 
 def factors_from_assignments(assignments: Sequence[str]) -> dict[str, tuple[Any, ...]]:
@@ -185,7 +190,7 @@ def factors_from_assignments(assignments: Sequence[str]) -> dict[str, tuple[Any,
     ------
     ConfigError
         An assignment without ``=``, a path given twice, unbalanced brackets or quotes, an
-        empty or repeated value; the message names the path and the assignment.
+        empty value; the message names the path and the assignment.
 
     Examples
     --------
@@ -215,7 +220,7 @@ def factors_from_mapping(overrides: Mapping[str, Sequence[Any]] | None) -> tuple
     ------
     ConfigError
         A path that is not a non-empty string, or ``seed``; levels that are not a list or
-        tuple, empty, or repeated.
+        tuple, or none.
     """
     if overrides is None:
         return ()
@@ -248,7 +253,16 @@ def _seeds(seeds: Sequence[int]) -> tuple[int, ...]:
 
 
 def _combinations(factors: tuple[Factor, ...], zipped: bool) -> list[tuple[Any, ...]]:
+    """The combinations of the factors' levels; a repeated one (which would run twice into
+    one folder) is an error."""
     if not zipped:
+        for f in factors:
+            repeat = _first_repeat(f.levels)
+            if repeat is not None:
+                levels = ", ".join(toml_literal(v) for v in f.levels)
+                raise ConfigError(
+                    f"{f.path}: value {toml_literal(repeat)} is given twice (got {levels})"
+                )
         return list(itertools.product(*(f.levels for f in factors)))
     lengths = {len(f.levels) for f in factors} - {1}
     if len(lengths) > 1:
@@ -258,7 +272,14 @@ def _combinations(factors: tuple[Factor, ...], zipped: bool) -> list[tuple[Any, 
             f"of values or just one (got {counts})"
         )
     n = max(lengths, default=1)
-    return [tuple(f.levels[i if len(f.levels) > 1 else 0] for f in factors) for i in range(n)]
+    combos = [tuple(f.levels[i if len(f.levels) > 1 else 0] for f in factors) for i in range(n)]
+    repeat = _first_repeat(combos)
+    if repeat is not None:
+        label = ", ".join(
+            f"{f.path}={toml_literal(v)}" for f, v in zip(factors, repeat, strict=True)
+        )
+        raise ConfigError(f"--zip: the combination {label} is given twice")
+    return combos
 
 
 def folder_name(values: Sequence[tuple[str, Any]], seed: int) -> str:
@@ -310,9 +331,9 @@ def plan_sweep(
     Raises
     ------
     ConfigError
-        Bad seeds, levels of unequal numbers under ``zipped``, or combinations the schema
-        rejects: one line per distinct problem, naming the combination, the field, the rule
-        and the value.
+        Bad seeds, a repeated level (a repeated combination under ``zipped``), levels of
+        unequal numbers under ``zipped``, or combinations the schema rejects: one line per
+        distinct problem, naming the combination, the field, the rule and the value.
     """
     seeds = _seeds(seeds)
     problems: dict[str, str] = {}
