@@ -24,7 +24,7 @@ import os
 import shutil
 import signal
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -55,11 +55,16 @@ class RunTask:
     config : ScenarioConfig
     resume : bool
         Continue the interrupted run in ``folder`` (from scratch if it cannot be continued).
+    threads : int, optional
+        Threads of the compiled kernels (Numba) while it runs: the executors give each run
+        its share of the CPUs, so that runs side by side do not each start a thread per core.
+        None: as they are.
     """
 
     folder: str
     config: ScenarioConfig
     resume: bool = False
+    threads: int | None = None
 
 
 def default_jobs() -> int:
@@ -96,6 +101,10 @@ def execute(task: RunTask) -> dict[str, Any]:
     """
     from swarmgames.sim import NotResumableError, resume
 
+    if task.threads is not None:
+        import numba
+
+        numba.set_num_threads(min(task.threads, numba.config.NUMBA_NUM_THREADS))
     with signals_interrupt():
         if _STOP is not None and _STOP.is_set():
             return _outcome("interrupted")
@@ -181,16 +190,11 @@ def _in_process(tasks: Sequence[RunTask], on_done: OnDone) -> bool:
     return False
 
 
-def _init_worker(stop, pids, threads: int) -> None:
+def _init_worker(stop, pids) -> None:
     """Start a pool worker: it stops only when the sweep tells it (SIGTERM while it runs a
-    task, the stop event before it starts one), not on the terminal's Ctrl-C; its compiled
-    kernels share the CPUs with the other workers (``threads`` each) instead of each taking
-    them all."""
-    import numba
-
+    task, the stop event before it starts one), not on the terminal's Ctrl-C."""
     global _STOP
     _STOP = stop
-    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
     for sig in (signal.SIGINT, *INTERRUPT_SIGNALS):
         signal.signal(sig, signal.SIG_IGN)
     pids.put(os.getpid())
@@ -215,9 +219,10 @@ def _in_processes(tasks: Sequence[RunTask], on_done: OnDone, jobs: int) -> bool:
         max_workers=min(jobs, len(tasks)),
         mp_context=ctx,
         initializer=_init_worker,
-        initargs=(stop, pids, max(1, default_jobs() // jobs)),
+        initargs=(stop, pids),
     )
-    index = {pool.submit(execute, task): i for i, task in enumerate(tasks)}
+    share = max(1, default_jobs() // jobs)
+    index = {pool.submit(execute, replace(t, threads=share)): i for i, t in enumerate(tasks)}
     pending = set(index)
     try:
         with signals_interrupt():
@@ -257,7 +262,8 @@ def _on_ray(tasks: Sequence[RunTask], on_done: OnDone, jobs: int, address: str |
             where = f"the Ray cluster at {address}" if address else "a local Ray"
             raise BackendUnavailableError(f"cannot start {where}: {exc}") from None
     remote = ray.remote(num_cpus=1)(execute)
-    index = {remote.remote(task): i for i, task in enumerate(tasks)}
+    # A task holds one of Ray's CPUs: one thread.
+    index = {remote.remote(replace(t, threads=1)): i for i, t in enumerate(tasks)}
     pending = list(index)
     try:
         with signals_interrupt():
