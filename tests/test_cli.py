@@ -20,7 +20,7 @@ def runner():
 def test_help_lists_every_subcommand(runner):
     res = runner.invoke(cli, ["--help"])
     assert res.exit_code == 0
-    for cmd in ("run", "reproduce", "network", "bench", "config"):
+    for cmd in ("run", "reproduce", "sweep", "network", "bench", "config"):
         assert cmd in res.output
 
 
@@ -367,3 +367,82 @@ def test_missions_check_reports_a_broken_plugin(runner):
         unregister_mission("broken")
     assert res.exit_code == 1
     assert "initial_states must return shape (4, 3)" in res.output
+
+
+# ----------------------------------------------------------------------------- sweep
+
+TINY = 'name = "tiny"\n[swarm]\nn_robots = 3\n[sim]\nduration_s = 4.0\nwarmup_s = 2.0\n'
+TINY += "animation = false\n"
+
+
+def _sweep(runner, tmp_path, *args):
+    (tmp_path / "tiny.toml").write_text(TINY)
+    out = tmp_path / "s"
+    cmd = ["sweep", str(tmp_path / "tiny.toml"), "--out", str(out), "--jobs", "1", "--no-progress"]
+    return runner.invoke(cli, [*cmd, *args]), out
+
+
+def test_sweep_end_to_end(runner, tmp_path):
+    # A comma inside brackets belongs to the value: two levels, one crash and none.
+    args = ["--set", "faults.crash=[[3.0,1]],[]", "--set", "swarm.n_robots=3,4", "--seeds", "0,1"]
+    res, out = _sweep(runner, tmp_path, *args, "--metric", "mean_payoff_end")
+    assert res.exit_code == 0, res.output
+    assert "8 runs: 8 complete, 0 failed, 0 interrupted" in res.output
+    assert "mean_payoff_end" in res.output and "[[3.0, 1]]" in res.output  # the summary table
+    for name in ("results.csv", "aggregate.csv", "paired.csv", "mean_payoff_end.png"):
+        assert (out / name).stat().st_size > 0, name
+    results = (out / "results.csv").read_text()
+    assert results.startswith("faults.crash,swarm.n_robots,seed,status,error,folder,")
+    assert '"[[3.0, 1]]",3,0,complete' in results
+    # Run again: every run is read back, none run.
+    stamp = {p: p.stat().st_mtime_ns for p in out.glob("runs/*/summary.json")}
+    again, _ = _sweep(runner, tmp_path, *args)
+    assert again.exit_code == 0, again.output
+    assert {p: p.stat().st_mtime_ns for p in out.glob("runs/*/summary.json")} == stamp
+
+
+@pytest.mark.parametrize(
+    ("args", "line"),
+    [
+        (
+            ["--set", "swarm.n_robots=3,0"],
+            "sweep point swarm.n_robots=0: swarm.n_robots: must be >= 1",
+        ),
+        (["--set", "swarm.n_robot=3,4"], "did you mean 'n_robots'?"),
+        (["--set", "faults.crash=[[3.0,1]"], "faults.crash: missing closing ']'"),
+        (["--set", "comms.loss_rate=0.1,nan"], "comms.loss_rate: must be a finite number"),
+        (["--set", "a.b=1,2", "--set", "c.d=1,2,3", "--zip"], "--zip pairs the i-th values"),
+        (["--seeds", "0,x"], "--seeds"),
+        (["--address", "auto"], "--address is the address of a Ray cluster"),
+        (["--jobs", "0"], "--jobs"),
+    ],
+)
+def test_sweep_rejects_bad_input_before_any_run(runner, tmp_path, args, line):
+    res, out = _sweep(runner, tmp_path, *args)
+    assert res.exit_code == 2, res.output
+    assert line in res.output and "Traceback" not in res.output
+    assert not out.exists()
+
+
+def test_sweep_with_a_failed_run_exits_1_after_the_others(runner, tmp_path):
+    # 7 robots in one clique give 9**7 joint profiles: the exact solver refuses.
+    res, _ = _sweep(
+        runner,
+        tmp_path,
+        "--set",
+        "swarm.n_robots=7",
+        "--set",
+        "game.solver=mean_field,exact",
+        "--seeds",
+        "0",
+    )
+    assert res.exit_code == 1, res.output
+    assert "2 runs: 1 complete, 1 failed" in res.output
+    assert "failed: runs/game.solver=exact" in res.output and "max_profiles" in res.output
+
+
+def test_sweep_without_ray_exits_1_with_the_pip_command(runner, tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)
+    res, out = _sweep(runner, tmp_path, "--executor", "ray")
+    assert res.exit_code == 1
+    assert "pip install 'swarmgames[ray]'" in res.output and not out.exists()

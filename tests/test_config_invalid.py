@@ -23,7 +23,7 @@ from pydantic import BaseModel
 
 from swarmgames.cli import cli
 from swarmgames.config import ScenarioConfig, parse_config
-from swarmgames.config.io import _toml_value
+from swarmgames.config.io import toml_literal
 from swarmgames.errors import ConfigError
 from swarmgames.missions import get_mission
 
@@ -206,7 +206,7 @@ def runner():
 )
 def test_cli_exits_2_with_one_line_naming_the_field(runner, mission, path, info):
     value = _wrong_types(info.annotation)[0]
-    res = runner.invoke(cli, ["config", "show", mission, "--set", f"{path}={_toml_value(value)}"])
+    res = runner.invoke(cli, ["config", "show", mission, "--set", f"{path}={toml_literal(value)}"])
     assert res.exit_code == 2, res.output
     assert res.output.startswith("Error: ") and path in res.output
     assert len(res.output.strip().splitlines()) == 1 and "Traceback" not in res.output

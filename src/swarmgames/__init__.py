@@ -25,6 +25,7 @@ _LAZY = {
     "run": "swarmgames.sim",
     "ScenarioConfig": "swarmgames.config",
     "reproduce_fig2": "swarmgames.experiments.fig2",
+    "sweep": "swarmgames.experiments.sweep",
 }
 
 

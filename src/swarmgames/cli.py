@@ -77,6 +77,19 @@ def _open_run_folder(out: Path | None, default_name: str, force: bool):
     return RunFolder(out if out is not None else Path("runs") / default_name, force=force)
 
 
+def _parse_seeds(text: str) -> list[int]:
+    """The seeds of ``--seeds S,S,...``; a usage error (exit 2) unless they are integers >= 0."""
+    try:
+        chosen = [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        chosen = []
+    if not chosen or min(chosen) < 0:
+        raise click.BadParameter(
+            f"must be comma-separated seeds >= 0 (got {text!r})", param_hint="--seeds"
+        )
+    return chosen
+
+
 out_option = click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
@@ -281,14 +294,7 @@ def reproduce(
         res2.write(folders["fig2"])
         click.echo(f"Figure 2: {len(res2.summaries)} runs -> {folders['fig2'].path}/")
     if folders.keys() & {"comms", "comms-cost", "comms-ns3"}:
-        try:
-            chosen = [int(x) for x in seeds.split(",") if x.strip()]
-        except ValueError:
-            chosen = []
-        if not chosen or min(chosen) < 0:
-            raise click.BadParameter(
-                f"must be comma-separated seeds >= 0 (got {seeds!r})", param_hint="--seeds"
-            )
+        chosen = _parse_seeds(seeds)
     if "comms-cost" in folders:
         from swarmgames.experiments.comms_cost import comms_cost
 
@@ -319,6 +325,168 @@ def reproduce(
         res3 = reproduce_comms(base=base, seeds=chosen, progress=progress)
         res3.write(folders["comms"])
         click.echo(f"Communication: {len(res3.runs)} runs -> {folders['comms'].path}/")
+
+
+# ----------------------------------------------------------------------------- sweep
+
+
+@cli.command()
+@click.argument("scenario", required=False)
+@click.option(
+    "--set",
+    "overrides",
+    multiple=True,
+    metavar="SECTION.FIELD=V1,V2,...",
+    help="A factor and its values (repeatable): TOML values as in `run --set`, split at the "
+    "commas outside brackets and quotes, e.g. --set 'faults.crash=[[5.0,1]],[]'.",
+)
+@click.option(
+    "--seeds", default="0,1,2", show_default=True, metavar="S,S,...", help="Seeds of every point."
+)
+@click.option(
+    "--zip",
+    "zipped",
+    is_flag=True,
+    help="Pair the i-th values of every --set instead of crossing them (same counts, or one).",
+)
+@click.option(
+    "--jobs",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Runs at once (default: the CPU count; 1 runs in this process).",
+)
+@click.option(
+    "--executor",
+    type=click.Choice(["local", "ray"]),
+    default="local",
+    show_default=True,
+    help="Local processes, or Ray (pip install 'swarmgames[ray]').",
+)
+@click.option(
+    "--address",
+    default=None,
+    metavar="ADDR",
+    help="Ray cluster to connect to (--executor ray; default: a local Ray of --jobs CPUs).",
+)
+@click.option(
+    "--out",
+    required=True,
+    type=click.Path(file_okay=False, path_type=Path),
+    help="The sweep's folder; the same command again resumes it.",
+)
+@click.option(
+    "--metric",
+    "metrics",
+    multiple=True,
+    metavar="NAME",
+    help="Summary figure to plot (repeatable; default: coverage_end_dbm, else mean_payoff_end).",
+)
+@click.option("--no-progress", is_flag=True, help="Do not show a progress bar.")
+@_guarded
+def sweep(
+    scenario: str | None,
+    overrides: tuple[str, ...],
+    seeds: str,
+    zipped: bool,
+    jobs: int | None,
+    executor: str,
+    address: str | None,
+    out: Path,
+    metrics: tuple[str, ...],
+    no_progress: bool,
+) -> None:
+    """Run SCENARIO (a built-in name or a TOML file; default: coverage) over the grid of the
+    --set values times the --seeds, one run folder per run.
+
+    Every combination is checked against the configuration schema before the first run.
+    Writes into OUT: sweep.json, the base config.toml, runs/<name>/ (run folders as `run`
+    writes them), results.csv (one row per run: the factors, the seed, status, error, the
+    run's summary), aggregate.csv (per combination and figure: n, mean, std, 95 % interval),
+    paired.csv (each level minus a factor's first level on the same seeds) and a plot per
+    --metric. A failed run is recorded with its error and the sweep goes on. The same
+    command again resumes: complete runs are read, interrupted ones continued, failed ones
+    rerun. Exit 1 if a run failed, 130 if interrupted.
+
+    \b
+    Examples:
+      swarmgames sweep --set swarm.n_robots=5,7,10 --seeds 0,1,2 --out runs/size
+      swarmgames sweep coverage-oracle --set comms.loss_rate=0.0,0.2 \\
+          --set network.backend=olsr,oracle --jobs 2 --out runs/loss
+      swarmgames sweep --set swarm.n_robots=5,10 --set game.beta=1.0,2.0 --zip --out runs/z
+      swarmgames sweep --set 'faults.crash=[],[[30.0,0]]' --metric median_global_regret \\
+          --out runs/crash
+      swarmgames sweep --executor ray --address auto --set swarm.n_robots=10,20 --out /shared/s
+    """
+    from swarmgames.experiments.sweep import factors_from_assignments
+    from swarmgames.experiments.sweep import sweep as run_sweep
+
+    if address is not None and executor != "ray":
+        raise click.UsageError("--address is the address of a Ray cluster: give --executor ray")
+    chosen = _parse_seeds(seeds)
+    results = run_sweep(
+        scenario,
+        factors_from_assignments(overrides),
+        chosen,
+        zip=zipped,
+        jobs=jobs,
+        executor=executor,
+        address=address,
+        out=out,
+        progress=not no_progress and _interactive(),
+        metrics=list(metrics) or None,
+    )
+    _console().print(_sweep_table(results, list(metrics)))
+    counts = results["status"].value_counts()
+    click.echo(
+        f"{len(results)} runs: "
+        + ", ".join(f"{counts.get(s, 0)} {s}" for s in ("complete", "failed", "interrupted"))
+        + f" -> {out}/"
+    )
+    failed = results[results["status"] == "failed"]
+    for _, row in failed.head(5).iterrows():
+        click.secho(f"failed: {row['folder']}: {row['error']}", fg="red", err=True)
+    if counts.get("interrupted", 0):
+        click.secho(
+            "Interrupted: the finished runs are kept and the tables written; run the same "
+            "command again to resume.",
+            err=True,
+        )
+        sys.exit(130)
+    if len(failed):
+        sys.exit(EXIT_FAILED)
+
+
+def _estimate(mean: float, low: float, high: float) -> str:
+    """``mean [low, high]``, the interval left out where it is undefined (one run)."""
+    import math
+
+    return f"{mean:.4g}" if math.isnan(low) else f"{mean:.4g} [{low:.4g}, {high:.4g}]"
+
+
+def _sweep_table(results, metrics: list[str]):
+    """Mean and 95 % interval of the plotted metrics per combination, as a rich Table."""
+    from rich.table import Table
+
+    from swarmgames.experiments.sweep import aggregate
+    from swarmgames.experiments.sweep.run import DEFAULT_METRICS
+    from swarmgames.experiments.sweep.stats import factor_columns, varied_factors
+
+    agg = aggregate(results)
+    shown = metrics or [m for m in DEFAULT_METRICS if m in set(agg["metric"])][:1]
+    factors, varied = factor_columns(results), varied_factors(results)
+    table = Table(title="swarmgames sweep: mean [95 % interval] over the seeds")
+    for col in (*varied, "n", *shown):
+        table.add_column(col, justify="right")
+    rows = agg[agg["metric"].isin(shown)]
+    for key, group in rows.groupby(factors, sort=False) if factors else [((), rows)]:
+        levels = dict(zip(factors, key, strict=True))
+        cells = {r.metric: _estimate(r.mean, r.ci_low, r.ci_high) for r in group.itertuples()}
+        table.add_row(
+            *(str(levels[c]) for c in varied),
+            str(group["n"].max()),
+            *(cells.get(m, "") for m in shown),
+        )
+    return table
 
 
 # ----------------------------------------------------------------------------- network

@@ -43,10 +43,12 @@ __all__ = [
     "format_validation_error",
     "load_config",
     "parse_config",
+    "parse_value",
     "resolve_scenario",
     "set_path",
     "to_data",
     "to_toml",
+    "toml_literal",
 ]
 
 
@@ -238,18 +240,30 @@ def _builtin_text(name: str) -> str:
     return (resources.files("swarmgames.presets") / f"{name}.toml").read_text(encoding="utf-8")
 
 
+def parse_value(raw: str) -> Any:
+    """The value of a ``--set`` assignment: a TOML literal, or else the text itself as a
+    string (a bare word: ``backend=oracle``).
+
+    Examples
+    --------
+    >>> parse_value("20"), parse_value("[[5.0, 1]]"), parse_value("oracle"), parse_value("'7'")
+    (20, [[5.0, 1]], 'oracle', '7')
+    """
+    raw = raw.strip()
+    try:
+        return tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        return raw
+
+
 def set_path(data: dict[str, Any], assignment: str) -> None:
     """Apply one ``--set`` assignment ``"section.field=value"`` (a TOML value; a bare word is
-    a string) to the raw scenario data ``data`` in place."""
+    a string, see :func:`parse_value`) to the raw scenario data ``data`` in place."""
     key, sep, raw = assignment.partition("=")
     key = key.strip()
     if not sep or not key:
         raise ConfigError(f"override must look like section.field=value (got {assignment!r})")
-    try:
-        value = tomllib.loads(f"v = {raw.strip()}")["v"]
-    except tomllib.TOMLDecodeError:
-        value = raw.strip()  # a bare word is read as a string: backend=oracle
-    _set_value(data, key, value, assignment)
+    _set_value(data, key, parse_value(raw), assignment)
 
 
 def _set_value(data: dict[str, Any], key: str, value: Any, what: str) -> None:
@@ -316,10 +330,17 @@ def _constraints(info: Any) -> str:
     return f" [{', '.join(rules)}]" if rules else ""
 
 
-def _toml_value(value: Any) -> str:
-    """One-line TOML literal of a configuration value (arrays stay on one line)."""
+def toml_literal(value: Any) -> str:
+    """One-line TOML literal of a configuration value (arrays stay on one line): what
+    :func:`parse_value` reads back.
+
+    Examples
+    --------
+    >>> toml_literal([[5.0, 1]]), toml_literal("oracle"), toml_literal(True)
+    ('[[5.0, 1]]', '"oracle"', 'true')
+    """
     if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+        return "[" + ", ".join(toml_literal(v) for v in value) + "]"
     return tomli_w.dumps({"v": value})[4:].strip()
 
 
@@ -341,7 +362,7 @@ def _toml_lines(model: BaseModel, prefix: str, annotated: bool) -> list[str]:
             if annotated:
                 lines.append(f"# {name} =   (unset)")
         else:
-            lines.append(f"{name} = {_toml_value(value)}")
+            lines.append(f"{name} = {toml_literal(value)}")
     for name, value in subsections:
         lines += ["", f"[{prefix}{name}]"]
         if annotated:
@@ -376,9 +397,11 @@ def to_data(config: ScenarioConfig) -> dict[str, Any]:
     return data
 
 
-def apply_overrides(config: ScenarioConfig, overrides: dict[str, Any]) -> ScenarioConfig:
+def apply_overrides(
+    config: ScenarioConfig, overrides: dict[str, Any], source: str = "overrides"
+) -> ScenarioConfig:
     """``config`` with the fields at the dotted paths of ``overrides`` replaced, re-validated
-    (see :meth:`ScenarioConfig.with_overrides`)."""
+    (see :meth:`ScenarioConfig.with_overrides`); an error names ``source``."""
     if not isinstance(overrides, dict):
         raise TypeError(
             f"overrides must be a dict of dotted paths (got {type(overrides).__name__})"
@@ -390,4 +413,4 @@ def apply_overrides(config: ScenarioConfig, overrides: dict[str, Any]) -> Scenar
         if isinstance(value, tuple):
             value = list(value)
         _set_value(data, key.strip(), value, f"{key}={value!r}")
-    return parse_config(data, source="overrides")
+    return parse_config(data, source=source)

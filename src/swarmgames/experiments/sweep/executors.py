@@ -1,0 +1,294 @@
+"""Where the runs of a sweep execute: in this process, in local processes, or on Ray.
+
+Every executor calls the same :func:`execute` on each :class:`RunTask`, reports each outcome
+as it arrives (``on_done(index, outcome)``, in the caller's thread) and returns whether the
+sweep was interrupted. A run that fails is an outcome (``status = "failed"`` with its error),
+never an exception. Ctrl-C, SIGTERM or SIGHUP, or a run that reports itself interrupted, stops
+the sweep: runs not started are not started, running ones stop at the end of their current
+stage and keep their completed stages (``status = "interrupted"``; the next sweep resumes
+them).
+
+* ``local`` with one job runs in this process (plug-in missions registered at run time work
+  only here);
+* ``local`` with more jobs uses a :class:`~concurrent.futures.ProcessPoolExecutor` of spawned
+  processes (no fork: Numba's threads and a forked process do not mix);
+* ``ray`` sends each run to a Ray cluster (``ray.init(address=...)``) or to a local Ray of
+  ``jobs`` CPUs; the optional extra ``pip install 'swarmgames[ray]'``. On a cluster, every
+  node needs swarmgames and the sweep's folder (a shared file system).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import signal
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from swarmgames.config import ScenarioConfig
+from swarmgames.errors import BackendUnavailableError, RunFolderError
+from swarmgames.sim.signals import INTERRUPT_SIGNALS, signals_interrupt
+
+__all__ = ["EXECUTORS", "RunTask", "default_jobs", "execute", "import_ray", "run_tasks"]
+
+EXECUTORS = ("local", "ray")
+
+#: ``on_done(index, outcome)``: an outcome is ``{"status", "error", "summary"}``.
+OnDone = Callable[[int, dict[str, Any]], None]
+
+#: Set in each worker process of the local pool by :func:`_init_worker`: the sweep's stop
+#: event, seen by tasks that start after an interruption.
+_STOP: Any = None
+
+
+@dataclass(frozen=True)
+class RunTask:
+    """One run to execute.
+
+    Attributes
+    ----------
+    folder : str
+        Absolute path of its run folder.
+    config : ScenarioConfig
+    resume : bool
+        Continue the interrupted run in ``folder`` (from scratch if it cannot be continued).
+    threads : int, optional
+        Threads of the compiled kernels (Numba) while it runs: the executors give each run
+        its share of the CPUs, so that runs side by side do not each start a thread per core.
+        None: as they are.
+    """
+
+    folder: str
+    config: ScenarioConfig
+    resume: bool = False
+    threads: int | None = None
+
+
+def default_jobs() -> int:
+    """The CPUs this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _outcome(status: str, error: str = "", summary: dict | None = None) -> dict[str, Any]:
+    return {"status": status, "error": error, "summary": dict(summary or {})}
+
+
+def _fresh(task: RunTask):
+    from swarmgames.sim import run
+
+    shutil.rmtree(task.folder, ignore_errors=True)
+    return run(task.config, out=task.folder, progress=False)
+
+
+def execute(task: RunTask) -> dict[str, Any]:
+    """Run (or resume) one run of a sweep into its folder.
+
+    A top-level function of plain arguments, so that spawned processes and Ray workers can
+    call it.
+
+    Returns
+    -------
+    dict
+        ``status`` (``"complete"``, ``"failed"`` or ``"interrupted"``), ``error`` (``"Type:
+        message"`` of a failed run, else ``""``) and ``summary`` (the run's ``summary.json``;
+        empty unless complete or interrupted).
+    """
+    from swarmgames.sim import NotResumableError, resume
+
+    if task.threads is not None:
+        import numba
+
+        numba.set_num_threads(min(task.threads, numba.config.NUMBA_NUM_THREADS))
+    with signals_interrupt():
+        if _STOP is not None and _STOP.is_set():
+            return _outcome("interrupted")
+        try:
+            if task.resume:
+                try:
+                    result = resume(task.folder, progress=False)
+                except (NotResumableError, RunFolderError):
+                    result = _fresh(task)  # no usable checkpoint: run it again
+            else:
+                result = _fresh(task)
+        except KeyboardInterrupt:
+            return _outcome("interrupted")
+        except Exception as exc:
+            with contextlib.suppress(OSError):
+                Path(task.folder).rmdir()  # a run that failed before its first stage
+            return _outcome("failed", f"{type(exc).__name__}: {exc}")
+    return _outcome("interrupted" if result.interrupted else "complete", summary=result.summary)
+
+
+def import_ray():
+    """The ``ray`` module.
+
+    Raises
+    ------
+    BackendUnavailableError
+        Ray is not installed (the message gives the pip command).
+    """
+    try:
+        import ray
+    except ImportError:
+        raise BackendUnavailableError(
+            "the 'ray' executor needs Ray: pip install 'swarmgames[ray]'"
+        ) from None
+    return ray
+
+
+def run_tasks(
+    tasks: Sequence[RunTask],
+    on_done: OnDone,
+    *,
+    jobs: int,
+    executor: str = "local",
+    address: str | None = None,
+) -> bool:
+    """Execute ``tasks``, calling ``on_done(index, outcome)`` as each ends (module notes).
+
+    Parameters
+    ----------
+    tasks : sequence of RunTask
+    on_done : callable
+    jobs : int
+        Runs at once (``local``: processes, 1 = this process; ``ray``: the CPUs of a local
+        Ray).
+    executor : {"local", "ray"}
+    address : str, optional
+        Address of the Ray cluster to connect to (``ray`` only).
+
+    Returns
+    -------
+    bool
+        Whether the sweep was interrupted; the tasks not reported then did not run.
+    """
+    if not tasks:
+        return False
+    if executor == "ray":
+        return _on_ray(tasks, on_done, jobs, address)
+    if jobs == 1:
+        return _in_process(tasks, on_done)
+    return _in_processes(tasks, on_done, jobs)
+
+
+def _in_process(tasks: Sequence[RunTask], on_done: OnDone) -> bool:
+    try:
+        with signals_interrupt():
+            for i, task in enumerate(tasks):
+                outcome = execute(task)
+                on_done(i, outcome)
+                if outcome["status"] == "interrupted":
+                    return True
+    except KeyboardInterrupt:
+        return True
+    return False
+
+
+def _init_worker(stop, pids) -> None:
+    """Start a pool worker: it stops only when the sweep tells it (SIGTERM while it runs a
+    task, the stop event before it starts one), not on the terminal's Ctrl-C."""
+    global _STOP
+    _STOP = stop
+    for sig in (signal.SIGINT, *INTERRUPT_SIGNALS):
+        signal.signal(sig, signal.SIG_IGN)
+    pids.put(os.getpid())
+
+
+def _future_outcome(future) -> dict[str, Any]:
+    try:
+        return future.result()
+    except KeyboardInterrupt:  # the stop signal came just outside the run
+        return _outcome("interrupted")
+    except Exception as exc:  # the worker died (out of memory, killed): the run failed
+        return _outcome("failed", f"{type(exc).__name__}: {exc}")
+
+
+def _in_processes(tasks: Sequence[RunTask], on_done: OnDone, jobs: int) -> bool:
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    ctx = multiprocessing.get_context("spawn")
+    stop, pids = ctx.Event(), ctx.SimpleQueue()
+    pool = ProcessPoolExecutor(
+        max_workers=min(jobs, len(tasks)),
+        mp_context=ctx,
+        initializer=_init_worker,
+        initargs=(stop, pids),
+    )
+    share = max(1, default_jobs() // jobs)
+    index = {pool.submit(execute, replace(t, threads=share)): i for i, t in enumerate(tasks)}
+    pending = set(index)
+    try:
+        with signals_interrupt():
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for future in done:
+                    outcome = _future_outcome(future)
+                    on_done(index[future], outcome)
+                    if outcome["status"] == "interrupted":
+                        raise KeyboardInterrupt
+    except KeyboardInterrupt:
+        stop.set()  # before the signals: a task that starts now sees it
+        for future in pending:
+            future.cancel()
+        while not pids.empty():
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pids.get(), signal.SIGTERM)
+        for future in pending:
+            if not future.cancelled():
+                on_done(index[future], _future_outcome(future))
+        return True
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+    return False
+
+
+def _on_ray(tasks: Sequence[RunTask], on_done: OnDone, jobs: int, address: str | None) -> bool:
+    ray = import_ray()
+    started = not ray.is_initialized()
+    if started:
+        try:
+            if address is None:
+                ray.init(num_cpus=jobs, include_dashboard=False, log_to_driver=False)
+            else:
+                ray.init(address=address, log_to_driver=False)
+        except (ConnectionError, RuntimeError, ValueError) as exc:
+            where = f"the Ray cluster at {address}" if address else "a local Ray"
+            raise BackendUnavailableError(f"cannot start {where}: {exc}") from None
+    remote = ray.remote(num_cpus=1)(execute)
+    # A task holds one of Ray's CPUs: one thread.
+    index = {remote.remote(replace(t, threads=1)): i for i, t in enumerate(tasks)}
+    pending = list(index)
+    try:
+        with signals_interrupt():
+            while pending:
+                done, pending = ray.wait(pending, num_returns=1)
+                outcome = _ray_outcome(ray, done[0])
+                on_done(index[done[0]], outcome)
+                if outcome["status"] == "interrupted":
+                    raise KeyboardInterrupt
+    except KeyboardInterrupt:
+        for ref in pending:
+            ray.cancel(ref)  # a running task gets KeyboardInterrupt: it stops cleanly
+        for ref in pending:
+            on_done(index[ref], _ray_outcome(ray, ref))
+        return True
+    finally:
+        if started:
+            ray.shutdown()
+    return False
+
+
+def _ray_outcome(ray, ref) -> dict[str, Any]:
+    try:
+        return ray.get(ref)
+    except ray.exceptions.TaskCancelledError:
+        return _outcome("interrupted")
+    except ray.exceptions.RayError as exc:  # the worker died: the run failed
+        return _outcome("failed", f"{type(exc).__name__}: {exc}")
