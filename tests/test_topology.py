@@ -62,3 +62,24 @@ def test_shape_mismatch_is_an_error():
 def test_bad_h():
     with pytest.raises(ValueError, match="h must be >= 1"):
         _line3().neighbourhood_matrix(0)
+
+
+@pytest.mark.parametrize(
+    ("owner", "dest", "hops", "next_hop", "message"),
+    [
+        ([0], [3], [1], None, r"dest must be robot ids in \[0, 3\) \(got 3 in entry 0\)"),
+        ([-1], [1], [1], None, r"owner must be robot ids in \[0, 3\)"),
+        ([0], [1], [0], None, r"hops must be whole numbers in \[1, 32767\] \(got 0 "),
+        ([0], [1], [-1], None, r"hops must be whole numbers"),
+        ([0], [1], [40000], None, r"hops must be whole numbers in \[1, 32767\]"),
+        ([0], [1], [1.5], None, r"hops must be whole numbers"),
+        ([0], [1], [1], [7], r"next_hop must be robot ids in \[-1, 3\)"),
+        ([1], [1], [1], None, r"route to itself \(robot 1\)"),
+        ([0, 0], [1, 1], [1, 2], None, r"the route 0 -> 1 appears twice"),
+    ],
+)
+def test_snapshots_refuse_tables_no_routing_table_can_hold(owner, dest, hops, next_hop, message):
+    # Tables from a user's provider are checked where they enter: nothing wraps around in
+    # int16, nothing indexes out of range later.
+    with pytest.raises(ValueError, match=message):
+        TopologySnapshot(0.0, 3, owner, dest, hops, next_hop)

@@ -59,6 +59,7 @@ class TopologySnapshot:
         owner = np.asarray(self.owner)
         if self.next_hop is None:
             object.__setattr__(self, "next_hop", np.full(owner.shape, -1, dtype=np.int32))
+        _check_entries(self.n_robots, owner, self.dest, self.hops, self.next_hop)
         order = np.lexsort((np.asarray(self.dest), owner))
         for name, dtype in (
             ("owner", np.int32),
@@ -134,3 +135,50 @@ class TopologySnapshot:
             for a, b, c in zip(self.owner[keep], self.dest[keep], self.hops[keep], strict=True)
         )
         return g
+
+
+#: Largest hop count a snapshot holds (``int16``).
+MAX_HOPS = int(np.iinfo(np.int16).max)
+
+
+def _check_entries(n_robots, owner, dest, hops, next_hop) -> None:
+    """Raise ``ValueError`` naming the first broken rule of a snapshot's entries: robot ids in
+    ``[0, n_robots)``, no route to oneself, hop counts whole numbers in ``[1, MAX_HOPS]``
+    (so that none overflows), next hops ``-1`` or a robot id, no (owner, dest) twice. The
+    boundary where a provider's tables enter the simulation."""
+    n = int(n_robots)
+    if n < 0 or n != n_robots:
+        raise ValueError(f"n_robots must be an integer >= 0 (got {n_robots!r})")
+    owner, dest = np.asarray(owner), np.asarray(dest)
+    hops, nxt = np.asarray(hops), np.asarray(next_hop)
+    if owner.size == 0:
+        return
+    for name, arr, low in (("owner", owner, 0), ("dest", dest, 0), ("next_hop", nxt, -1)):
+        if arr.shape != owner.shape:
+            continue  # the shape rule reports it
+        bad = ~np.isfinite(arr) | (arr < low) | (arr >= n) | (arr != np.round(arr))
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise ValueError(
+                f"{name} must be robot ids in [{low}, {n}) (got {arr[k].item()!r} in entry {k})"
+            )
+    if hops.shape == owner.shape:
+        bad = ~np.isfinite(hops) | (hops < 1) | (hops > MAX_HOPS) | (hops != np.round(hops))
+        if bad.any():
+            k = int(np.flatnonzero(bad)[0])
+            raise ValueError(
+                f"hops must be whole numbers in [1, {MAX_HOPS}] (got {hops[k].item()!r} for "
+                f"owner {owner[k].item()}, dest {dest[k].item()})"
+            )
+    if dest.shape == owner.shape:
+        self_route = owner == dest
+        if self_route.any():
+            k = int(np.flatnonzero(self_route)[0])
+            raise ValueError(
+                f"a robot's table must not hold a route to itself (robot {owner[k].item()})"
+            )
+        key = np.sort(owner.astype(np.int64) * max(n, 1) + dest.astype(np.int64))
+        twice = np.flatnonzero(np.diff(key) == 0)
+        if twice.size:
+            k = key[twice[0]]
+            raise ValueError(f"the route {k // n} -> {k % n} appears twice")

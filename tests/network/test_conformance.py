@@ -44,8 +44,10 @@ def test_snapshot_rules():
     check_snapshot(ok, 3, 0.0)
     with pytest.raises(ProviderConformanceError, match="n_robots=3, expected 4"):
         check_snapshot(ok, 4, 0.0)
-    with pytest.raises(ProviderConformanceError, match="route to itself"):
-        check_snapshot(TopologySnapshot(0.0, 3, [0], [0], [1]), 3, 0.0)
+    # A snapshot cannot even be built with a route to itself, out-of-range ids or hop counts
+    # that would overflow (the boundary where any provider's tables enter the simulation).
+    with pytest.raises(ValueError, match="route to itself"):
+        TopologySnapshot(0.0, 3, [0], [0], [1])
     with pytest.raises(ProviderConformanceError, match="next hop must be a 1-hop neighbour"):
         check_snapshot(TopologySnapshot(0.0, 3, [0], [2], [2], [2]), 3, 0.0)
     with pytest.raises(ValueError, match="n_robots must be >= 3"):
