@@ -25,6 +25,7 @@ from swarmgames.sim.journal import read_manifest
 from swarmgames.sim.runner import build_loop
 
 from .conftest import DiskOracle
+from .test_signals import ANNOUNCING_CLI
 
 #: Columns that are wall times, different in any two runs.
 TIMINGS = ("solve_ms", "integrate_ms")
@@ -246,25 +247,6 @@ def test_cli_resume(tmp_path, reference):
     assert res.exit_code == 2 and "--set cannot be given with it" in res.output
     res = runner.invoke(cli, ["run", "--resume", str(out), "--seed", "0"])
     assert res.exit_code == 2 and "--seed cannot be given with it" in res.output
-
-
-# The CLI in a fresh process that announces every completed stage on stdout.
-ANNOUNCING_CLI = """
-import sys
-import swarmgames.sim.runner as runner
-
-class Announce:
-    def __init__(self, description, enabled, total=None):
-        pass
-    def __enter__(self):
-        return lambda done, total=None: print(f"stage {done}", flush=True)
-    def __exit__(self, *exc):
-        pass
-
-runner.ProgressBar = Announce
-from swarmgames.cli import main
-main(sys.argv[1:])
-"""
 
 
 def _cli(args, **kwargs):

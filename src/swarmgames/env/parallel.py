@@ -60,6 +60,8 @@ import gymnasium as gym
 import numpy as np
 from pettingzoo import ParallelEnv
 
+from swarmgames.missions.protocol import NETWORK_COLUMNS, SWARM_HEAD
+
 __all__ = ["SwarmParallelEnv", "parallel_env"]
 
 
@@ -410,17 +412,8 @@ class SwarmParallelEnv(ParallelEnv):
         return dict.fromkeys(live, share)
 
 
-_LOOP_COLUMNS = {
-    "mean_payoff",
-    "mean_hops",
-    "max_hops",
-    "components",
-    "oscillation",
-    "mean_info_age_s",
-    "bytes_per_robot",
-    "alive_robots",
-    "olsr_bytes_per_robot",
-}
+#: swarm.csv columns that the loop writes, not the mission (SWARM_HEAD and NETWORK_COLUMNS).
+_LOOP_COLUMNS = frozenset((*SWARM_HEAD, *NETWORK_COLUMNS))
 
 
 def _flatten(obs: dict[str, np.ndarray]) -> np.ndarray:
