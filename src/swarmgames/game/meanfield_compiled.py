@@ -34,7 +34,7 @@ import threading
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["solve_batch"]
+__all__ = ["POOL_LOCK", "solve_batch"]
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -185,10 +185,11 @@ def solve_batch(
     if b < PARALLEL_MIN_GAMES:
         _solve_serial(*args)
     else:
-        with _POOL_LOCK:
+        with POOL_LOCK:
             _solve_parallel(*args)
     return q, its, kls
 
 
-_POOL_LOCK = threading.Lock()
-"""Numba's default (workqueue) thread pool must not be entered by two threads at once."""
+POOL_LOCK = threading.Lock()
+"""Numba's default (workqueue) thread pool must not be entered by two threads at once: every
+parallel kernel of the package (this engine, the coverage kernel) runs under this lock."""
