@@ -48,7 +48,12 @@ from numba.extending import intrinsic
 
 from swarmgames.game.meanfield_compiled import POOL_LOCK
 from swarmgames.missions.coverage.signal import SignalModel
-from swarmgames.missions.coverage.window import RoiRaster, window_geometry
+from swarmgames.missions.coverage.window import (
+    RoiRaster,
+    _morton,
+    window_geometry,
+    windowed_unary,
+)
 
 __all__ = ["compiled_windowed_unary", "exp_f32", "log1p_f32", "log_f32"]
 
@@ -120,7 +125,7 @@ def exp_f32(x):
 
 @njit(cache=True, nogil=True, inline="always")
 def log1p_f32(v):
-    """:math:`\\log(1 + v)` of a float32 ``v`` in [0, 1] (Goldberg's correction of
+    """:math:`\\log(1 + v)` of a finite float32 ``v`` >= 0 (Goldberg's correction of
     ``log(1 + v)`` for the rounding of ``1 + v``, within 3 ulp)."""
     u = _f32(1.0) + v
     d = u - _f32(1.0)
@@ -140,107 +145,157 @@ def _dot(a, b, n):
 
 
 @njit(cache=True, nogil=True)
-def _psi_inplace(d2, n, d02, d2f, c0, c1, scale):
-    """``d2[:n]``, squared distances, replaced by ``scale`` ψ_F (one vectorised loop; one
-    array, so that no runtime alias check sends it to the scalar path)."""
+def _psi_inplace(d2, n, d02, d2f, c0, c1):
+    """``d2[:n]``, squared distances, replaced by ψ_F (one vectorised loop over one array,
+    so that no runtime alias check sends it to the scalar path)."""
     for j in range(n):
         v = d2[j]
         v = v if v > d02 else d02
         v = v if v < d2f else d2f
-        d2[j] = (c0 - c1 * (log_f32(v) * _LOG10E)) * scale
+        d2[j] = c0 - c1 * (log_f32(v) * _LOG10E)
 
 
-@njit(cache=True, nogil=True)
-def _softplus_gain(f, o, n):
-    """``f[:n] = softplus(f - o)`` in place, :math:`\\max(u, 0) + \\log(1 + e^{-|u|})`."""
-    for j in range(n):
-        u = f[j] - o[j]
-        f[j] = (u if u > _f32(0.0) else _f32(0.0)) + log1p_f32(exp_f32(-abs(u)))
-
-
-@njit(cache=True, nogil=True)
-def _hard_gain(f, o, n):
-    """``f[:n] = max(f - o, 0)`` in place."""
-    for j in range(n):
-        u = f[j] - o[j]
-        f[j] = u if u > _f32(0.0) else _f32(0.0)
-
-
-@njit(cache=True, nogil=True)
-def _unary_row(
-    b, k, mask, amask, states, nxt, ctr, weights, origin, cell, r, row_len, row_start,
-    pair_reach2, d2f, d02, c0, c1, soft, inv_tau, tau, out,
-):  # fmt: skip
-    """:math:`\\tilde\\phi_u` of variable ``k`` of game ``b`` into ``out[b, k]``."""
-    n_k, n_a = mask.shape[1], amask.shape[2]
+@njit(cache=True, nogil=True, inline="always")
+def _window_d2(px, py, pz, cx, cy, origin, cell, r, row_len, row_start, ddx, d2):
+    """Squared distances from (px, py, pz) to the window's cells around cell (cx, cy) into
+    ``d2`` (numpy's arithmetic: per-axis terms in float64, their sum in float32)."""
     side = 2 * r + 1
-    n_cells = row_start[side]
-    cx, cy = ctr[b, k, 0], ctr[b, k, 1]
-    w = np.empty(n_cells, np.float32)
-    m = np.full(n_cells, d2f, np.float32)
-    g = np.empty(n_cells, np.float32)
-    ddx = np.empty(side, np.float32)
-    scale = tau if soft else _f32(1.0)
+    for t in range(side):
+        gx = origin[0] + (cx - r + t) * cell
+        ddx[t] = np.float32((gx - px) ** 2)
     for i in range(side):
+        gy = origin[1] + (cy - r + i) * cell
+        ddy = np.float32((gy - py) ** 2 + pz**2)
         h = row_len[i] // 2
         j0 = row_start[i]
         for t in range(row_len[i]):
-            w[j0 + t] = weights[cy - r + i, cx - h + t] * scale
-    # o_k as the smallest squared distance of the others within reach (numpy's arithmetic).
-    sx, sy = states[b, k, 0], states[b, k, 1]
-    for other in range(n_k):
-        if other == k or not mask[b, other]:
-            continue
-        lx, ly, lz = states[b, other, 0], states[b, other, 1], states[b, other, 2]
-        if (sx - lx) * (sx - lx) + (sy - ly) * (sy - ly) > pair_reach2:
-            continue
-        for t in range(side):
-            gx = origin[0] + (cx - r + t) * cell
-            ddx[t] = np.float32((gx - lx) ** 2)
-        for i in range(side):
-            gy = origin[1] + (cy - r + i) * cell
-            ddy = np.float32((gy - ly) ** 2 + lz**2)
-            h = row_len[i] // 2
-            j0 = row_start[i]
-            for t in range(row_len[i]):
-                d2 = ddy + ddx[r - h + t]
-                if d2 < m[j0 + t]:
-                    m[j0 + t] = d2
-    _psi_inplace(m, n_cells, d02, d2f, c0, c1, inv_tau if soft else _f32(1.0))
-    for x in range(n_a):
-        if not amask[b, k, x]:
-            out[b, k, x] = 0.0
-            continue
-        px, py, pz = nxt[b, k, x, 0], nxt[b, k, x, 1], nxt[b, k, x, 2]
-        for t in range(side):
-            gx = origin[0] + (cx - r + t) * cell
-            ddx[t] = np.float32((gx - px) ** 2)
-        for i in range(side):
-            gy = origin[1] + (cy - r + i) * cell
-            ddy = np.float32((gy - py) ** 2 + pz**2)
-            h = row_len[i] // 2
-            j0 = row_start[i]
-            for t in range(row_len[i]):
-                g[j0 + t] = ddy + ddx[r - h + t]
-        if soft:
-            _psi_inplace(g, n_cells, d02, d2f, c0, c1, inv_tau)
-            _softplus_gain(g, m, n_cells)
-        else:
-            _psi_inplace(g, n_cells, d02, d2f, c0, c1, _f32(1.0))
-            _hard_gain(g, m, n_cells)
-        out[b, k, x] = _dot(w, g, n_cells)
+            d2[j0 + t] = ddy + ddx[r - h + t]
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _unary_rows(
-    rows_b, rows_k, mask, amask, states, nxt, ctr, weights, origin, cell, r, row_len,
-    row_start, pair_reach2, d2f, d02, c0, c1, soft, inv_tau, tau, out,
+def _state_table(
+    src_b, src_k, amask, nxt, ctr, origin, cell, r, row_len, row_start, d02, d2f, c0, c1,
+    soft, inv_tau, table,
 ):  # fmt: skip
+    """Signal of every action of every distinct state over its window, ``table`` (U, A, C):
+    :math:`e^{(\\psi_F - F) / \\tau}` with the smooth maximum, else :math:`\\psi_F`."""
+    n_a = amask.shape[2]
+    n_cells = row_start[2 * r + 1]
+    floor = c0 - c1 * (log_f32(d2f) * _LOG10E)
+    for u in prange(src_b.size):
+        b, k = src_b[u], src_k[u]
+        ddx = np.empty(2 * r + 1, np.float32)
+        row = np.empty(n_cells, np.float32)
+        for x in range(n_a):
+            if not amask[b, k, x]:
+                continue
+            _window_d2(
+                nxt[b, k, x, 0], nxt[b, k, x, 1], nxt[b, k, x, 2], ctr[b, k, 0], ctr[b, k, 1],
+                origin, cell, r, row_len, row_start, ddx, row,
+            )  # fmt: skip
+            _psi_inplace(row, n_cells, d02, d2f, c0, c1)
+            if soft:
+                _exp_excess(row, n_cells, floor, inv_tau)
+            table[u, x, :n_cells] = row
+
+
+@njit(cache=True, nogil=True)
+def _exp_excess(v, n, floor, inv_tau):
+    """``v[:n]`` replaced by :math:`e^{(v - F) / \\tau}` in place."""
+    for j in range(n):
+        v[j] = exp_f32((v[j] - floor) * inv_tau)
+
+
+@njit(cache=True, nogil=True)
+def _softplus_gain(e, inv_eo, g, n):
+    """``g[:n] = log(1 + e inv_eo)``: :math:`\\mathrm{softplus}((f - o) / \\tau)` from
+    :math:`e^{(f - F)/\\tau}` and :math:`e^{-(o - F)/\\tau}`."""
+    for j in range(n):
+        g[j] = log1p_f32(e[j] * inv_eo[j])
+
+
+@njit(cache=True, nogil=True)
+def _hard_gain(f, o, g, n):
+    """``g[:n] = max(f - o, 0)``."""
+    for j in range(n):
+        u = f[j] - o[j]
+        g[j] = u if u > _f32(0.0) else _f32(0.0)
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _gain_rows(
+    rows_b, rows_k, rows_u, mask, amask, states, ctr, weights, origin, cell, r, row_len,
+    row_start, pair_reach2, d02, d2f, c0, c1, soft, inv_tau, tau, table, out,
+):  # fmt: skip
+    """:math:`\\tilde\\phi_u` of every valid variable (row) into ``out``, its actions'
+    signals taken from row ``rows_u`` of ``table``."""
+    n_k, n_a = mask.shape[1], amask.shape[2]
+    side = 2 * r + 1
+    n_cells = row_start[side]
+    floor = c0 - c1 * (log_f32(d2f) * _LOG10E)
+    scale = tau if soft else _f32(1.0)
     for i in prange(rows_b.size):
-        _unary_row(
-            rows_b[i], rows_k[i], mask, amask, states, nxt, ctr, weights, origin, cell, r,
-            row_len, row_start, pair_reach2, d2f, d02, c0, c1, soft, inv_tau, tau, out,
-        )  # fmt: skip
+        b, k, u = rows_b[i], rows_k[i], rows_u[i]
+        cx, cy = ctr[b, k, 0], ctr[b, k, 1]
+        w = np.empty(n_cells, np.float32)
+        m = np.full(n_cells, d2f, np.float32)
+        g = np.empty(n_cells, np.float32)
+        d2 = np.empty(n_cells, np.float32)
+        ddx = np.empty(side, np.float32)
+        for y in range(side):
+            h = row_len[y] // 2
+            j0 = row_start[y]
+            for t in range(row_len[y]):
+                w[j0 + t] = weights[cy - r + y, cx - h + t] * scale
+        # o_k as the smallest squared distance of the others within reach.
+        sx, sy = states[b, k, 0], states[b, k, 1]
+        for other in range(n_k):
+            if other == k or not mask[b, other]:
+                continue
+            lx, ly, lz = states[b, other, 0], states[b, other, 1], states[b, other, 2]
+            if (sx - lx) * (sx - lx) + (sy - ly) * (sy - ly) > pair_reach2:
+                continue
+            _window_d2(lx, ly, lz, cx, cy, origin, cell, r, row_len, row_start, ddx, d2)
+            _min_into(m, d2, n_cells)
+        _psi_inplace(m, n_cells, d02, d2f, c0, c1)
+        if soft:
+            _exp_excess(m, n_cells, floor, -inv_tau)
+        for x in range(n_a):
+            if not amask[b, k, x]:
+                out[b, k, x] = 0.0
+                continue
+            if soft:
+                _softplus_gain(table[u, x], m, g, n_cells)
+            else:
+                _hard_gain(table[u, x], m, g, n_cells)
+            out[b, k, x] = _dot(w, g, n_cells)
+
+
+@njit(cache=True, nogil=True)
+def _min_into(m, d2, n):
+    """``m[:n] = min(m, d2)``."""
+    for j in range(n):
+        v = d2[j]
+        m[j] = v if v < m[j] else m[j]
+
+
+def _distinct_states(rows_b, rows_k, ids, states, nxt, amask):
+    """Slot of every row in the table of distinct states, and the (game, variable) that
+    defines each slot: rows with equal ``ids`` share a slot when their state, next states
+    and valid actions are equal too (a robot's beliefs may differ between games); the others
+    get slots of their own."""
+    _, first, slot = np.unique(ids, return_index=True, return_inverse=True)
+    slot = slot.reshape(-1)
+    fb, fk = rows_b[first[slot]], rows_k[first[slot]]
+    same = (
+        (states[rows_b, rows_k] == states[fb, fk]).all(axis=1)
+        & (nxt[rows_b, rows_k] == nxt[fb, fk]).all(axis=(1, 2))
+        & (amask[rows_b, rows_k] == amask[fb, fk]).all(axis=1)
+    )
+    own = np.flatnonzero(~same)
+    slot[own] = first.size + np.arange(own.size)
+    src = np.concatenate([first, own])
+    return slot, rows_b[src], rows_k[src]
 
 
 def compiled_windowed_unary(
@@ -254,6 +309,8 @@ def compiled_windowed_unary(
     *,
     softness_db: float = 0.0,
     workers: int = 1,
+    state_ids: np.ndarray | None = None,
+    chunk_elems: int = 2_000_000,
 ) -> np.ndarray:
     """:math:`\\tilde\\phi_u` of every game, variable and action, by the fused kernel.
 
@@ -263,6 +320,13 @@ def compiled_windowed_unary(
         As :func:`~swarmgames.missions.coverage.window.windowed_unary`.
     workers : int
         Threads (at most Numba's ``NUMBA_NUM_THREADS``); the result does not depend on it.
+    state_ids : (B, K) int, optional
+        Hints of equal states across games (for example ``2 * member + is_virtual``); rows
+        with equal ids share their actions' signals only where their states, next states
+        and valid actions are equal too. Default: every row its own.
+    chunk_elems : int
+        Upper bound on the elements of the table of distinct states' action signals of one
+        chunk of games (float32).
 
     Returns
     -------
@@ -275,50 +339,57 @@ def compiled_windowed_unary(
 
     Notes
     -----
-    The first call in a fresh environment compiles the kernel (about 5 s on a 2-core
-    machine); later processes load it from Numba's cache.
+    The smooth maximum is computed as :math:`\\log(1 + e^{(f - F)/\\tau}
+    e^{-(o - F)/\\tau})`, whose factors are finite when :math:`(\\psi_{top} - F) / \\tau
+    < 80`; a batch with a smaller τ (``WindowGeometry.fast_softplus`` false) goes to the
+    numpy path. The first call in a fresh environment compiles the kernels (about 10 s on a
+    2-core machine, reported by ``swarmgames bench``); later processes load them from
+    Numba's cache.
     """
     B, K, A = amask.shape
     out = np.zeros((B, K, A))
     if B == 0 or not mask.any():
         return out
     win = window_geometry(raster, signal, floor_dbm, mask, amask, states, nxt, softness_db)
-    r = win.radius
+    soft = bool(win.tau > 0)
+    if soft and not win.fast_softplus:
+        return windowed_unary(
+            raster, signal, floor_dbm, mask, amask, states, nxt, softness_db=softness_db
+        )
+    r, n_cells = win.radius, win.n_cells
     # The disc's cells row by row (dy = -r .. r): row i holds the 2 h_i + 1 cells
     # dx = -h_i .. h_i, contiguous in the flat order of win.offsets.
     row_len = np.bincount(win.offsets[:, 0] + r, minlength=2 * r + 1).astype(np.int64)
     row_start = np.concatenate([[0], np.cumsum(row_len)]).astype(np.int64)
-    rows_b, rows_k = np.nonzero(mask)
-    soft = bool(win.tau > 0)
-    args = (
-        rows_b.astype(np.int64),
-        rows_k.astype(np.int64),
-        np.ascontiguousarray(mask, dtype=np.bool_),
-        np.ascontiguousarray(amask, dtype=np.bool_),
-        np.ascontiguousarray(states, dtype=np.float64),
-        np.ascontiguousarray(nxt, dtype=np.float64),
-        np.ascontiguousarray(win.ctr, dtype=np.int64),
-        raster.weights,
-        np.asarray(raster.origin, dtype=np.float64),
-        float(win.cell),
-        int(r),
-        row_len,
-        row_start,
-        float(win.pair_reach) ** 2,
-        win.d2_floor,
-        win.d02,
-        win.c0,
-        win.c1,
-        soft,
-        _f32(1.0) / win.tau if soft else _f32(1.0),
-        win.tau,
-        out,
-    )
+    mask = np.ascontiguousarray(mask, dtype=np.bool_)
+    amask = np.ascontiguousarray(amask, dtype=np.bool_)
+    states = np.ascontiguousarray(states, dtype=np.float64)
+    nxt = np.ascontiguousarray(nxt, dtype=np.float64)
+    ctr = np.ascontiguousarray(win.ctr, dtype=np.int64)
+    origin = np.asarray(raster.origin, dtype=np.float64)
+    ids = np.arange(B * K).reshape(B, K) if state_ids is None else np.asarray(state_ids)
+    inv_tau = _f32(1.0) / win.tau if soft else _f32(1.0)
+    consts = (win.d02, win.d2_floor, win.c0, win.c1, soft, inv_tau)
+    geom = (origin, float(win.cell), int(r), row_len, row_start)
+    # Games in spatial order (by the cell of their first variable), in chunks whose table of
+    # distinct states stays under chunk_elems: the games of a chunk share most members.
+    order = np.argsort(_morton(ctr[:, 0, 0], ctr[:, 0, 1]), kind="stable")
+    step = max(1, chunk_elems // max(1, K * A * n_cells))
     with POOL_LOCK:
         before = numba.get_num_threads()
         numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
         try:
-            _unary_rows(*args)
+            for lo in range(0, B, step):
+                games = np.sort(order[lo : lo + step])
+                sub = mask[games]
+                rb, rk = np.nonzero(sub)
+                rb = games[rb]
+                slot, ub, uk = _distinct_states(rb, rk, ids[rb, rk], states, nxt, amask)
+                table = np.empty((ub.size, A, n_cells), dtype=np.float32)
+                _state_table(ub, uk, amask, nxt, ctr, *geom, win.d02, win.d2_floor, win.c0,
+                             win.c1, soft, inv_tau, table)  # fmt: skip
+                _gain_rows(rb, rk, slot, mask, amask, states, ctr, raster.weights, *geom,
+                           float(win.pair_reach) ** 2, *consts, win.tau, table, out)  # fmt: skip
         finally:
             numba.set_num_threads(before)
     return out

@@ -262,6 +262,8 @@ class CoveragePotentials:
                 nxt,
                 softness_db=self.softness_db,
                 workers=self.workers,
+                state_ids=ids,
+                chunk_elems=self.chunk_elems // 2,
             )
         return windowed_unary(
             self._raster,
