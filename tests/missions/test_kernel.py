@@ -5,6 +5,7 @@ import os
 import subprocess
 import sys
 import textwrap
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -159,6 +160,47 @@ def test_potentials_choose_the_kernel_and_reject_an_unknown_one():
     assert not CoveragePotentials(ROI, SIGNAL, kernel="numpy")._compiled
 
 
+def _pair_batch(seed, b=6, k=7, spread=60.0):
+    mask, amask, states, nxt = _games(np.random.default_rng(seed), b, k, spread)
+    return SimpleNamespace(mask=mask, action_mask=amask, states=states, next_states=nxt)
+
+
+@pytest.mark.parametrize("crowding", [0.0, 0.1])
+def test_pair_source_equals_the_weighted_pair_table(crowding):
+    pot = CoveragePotentials(
+        ROI, SIGNAL, separation_m=50.0, separation_cost_db=crowding, alpha_b=0.002
+    )
+    batch = _pair_batch(7)
+    src = pot.pair_source(batch, 0.004, np.float32)
+    want = 0.004 * pot.pair_table(batch, np.float32)
+    valid = (
+        batch.mask[:, :, None, None, None]
+        & batch.mask[:, None, None, :, None]
+        & ~np.eye(7, dtype=bool)[None, :, None, :, None]
+        & batch.action_mask[:, :, :, None, None]
+        & batch.action_mask[:, None, None, :, :]
+    )
+    got = src.table(np.arange(6))
+    assert got.dtype == np.float32 and np.all(got[~valid] == 0.0)
+    # float32: the logarithm and d² of two computations, a few ulp apart.
+    np.testing.assert_allclose(got[valid], want[valid], rtol=1e-6, atol=1e-9)
+    if crowding:  # close pairs pay the penalty: the table is not the signal alone
+        plain = CoveragePotentials(ROI, SIGNAL, alpha_b=0.002).pair_source(batch, 0.004, "float32")
+        assert (plain.table(np.arange(6)) > got)[valid].any()
+    # The table's values at a profile, without the table, bit for bit; sub-batches alike.
+    x = np.argmax(batch.action_mask, axis=2)
+    at = np.take_along_axis(got, x[:, None, None, :, None], axis=4)[..., 0]
+    assert np.array_equal(src.at(x), at)
+    assert np.array_equal(src.select([4, 1]).table(np.arange(2)), got[[4, 1]])
+
+
+def test_pair_source_only_for_float32_with_the_compiled_kernel():
+    batch = _pair_batch(0)
+    assert CoveragePotentials(ROI, SIGNAL).pair_source(batch, 0.001, np.float64) is None
+    numpy = CoveragePotentials(ROI, SIGNAL, kernel="numpy")
+    assert numpy.pair_source(batch, 0.001, np.float32) is None
+
+
 _RUN = """
 import json, sys
 import numpy as np
@@ -186,9 +228,10 @@ def _positions(kernel: str, threads: int) -> np.ndarray:
 
 
 def test_whole_runs_one_or_two_threads_and_numpy_kernel():
-    # Four stages of a 60-UAV constant-density run: bit-identical on 1 and 2 Numba threads
-    # (every variable and every game on one thread), and the same flight as the numpy path
-    # (payoffs equal to float32 rounding: no decision changes in these stages).
+    # Four stages of a 60-UAV constant-density run (float32 tables): bit-identical on 1 and
+    # 2 Numba threads (every variable and every game on one thread), and the same flight as
+    # the numpy unary and pair table (payoffs equal to float32 rounding: no decision changes
+    # in these stages).
     assert scaled_config(60).mission.kernel == "auto"
     one, two = _positions("compiled", 1), _positions("compiled", 2)
     assert np.array_equal(one, two)

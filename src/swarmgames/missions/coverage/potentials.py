@@ -385,6 +385,35 @@ class CoveragePotentials:
             out[lo:hi] = np.where(ok, val, 0.0)
         return out
 
+    def pair_source(self, batch, alpha_b: float, dtype=np.float64):
+        """The engine's weighted table :math:`\\alpha_b \\times` :meth:`pair_table`, on
+        demand (:class:`~swarmgames.missions.coverage.kernel.CoveragePairs`: computed per
+        chunk of games inside the compiled mean-field solve and at the measured profiles,
+        never for the whole batch), for float32 tables with the compiled kernel; None
+        otherwise (the engine then calls :meth:`pair_table`). Equal to it to float32
+        rounding."""
+        if np.dtype(dtype) != np.float32 or not self._compiled:
+            return None
+        from swarmgames.missions.coverage.kernel import CoveragePairs
+
+        sig = self.signal
+        mask = np.asarray(batch.mask, dtype=bool)
+        valid = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+        d02 = np.float32(sig.reference_distance_m**2)
+        crowd = self._crowding_on and self.separation_mode == "pairwise"
+        return CoveragePairs(
+            points=np.ascontiguousarray(np.asarray(batch.next_states, dtype=float)[..., :3]),
+            valid=np.ascontiguousarray(valid),
+            scale=np.float32(-10.0 * sig.exponent),
+            offset=np.float32(2.0 * (sig.t0_dbm - sig.l0_db) + 10.0 * sig.exponent * np.log10(d02)),
+            d02=d02,
+            inv_sep=np.float32(1.0 / self.separation_m if crowd else 0.0),
+            crowd=np.float32(
+                2.0 * self.separation_cost_db * self.roi.mass / self.alpha_b if crowd else 0.0
+            ),
+            weight=np.float32(alpha_b),
+        )
+
     def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
         """Symmetrised eq. 6 in the engine's layout, ``(B, K, A, K, A)``:
         :math:`\\phi_p(k, a, l, c) + \\phi_p(l, c, k, a) = 2\\,\\psi_R(|S_k(a) - S_l(c)|)`
