@@ -158,20 +158,36 @@ def _psi_inplace(d2, n, d02, d2f, c0, c1):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _window_d2(px, py, pz, cx, cy, origin, cell, r, row_len, row_start, ddx, d2):
-    """Squared distances from (px, py, pz) to the window's cells around cell (cx, cy) into
-    ``d2`` (numpy's arithmetic: per-axis terms in float64, their sum in float32)."""
+def _square_d2(px, py, pz, cx, cy, origin, cell, r, width, ddx, sq, at_least):
+    """Squared distances from (px, py, pz) to the cells of the window's square around cell
+    (cx, cy), ``sq[y * width + t]`` (numpy's arithmetic: per-axis terms in float64, their
+    sum in float32), or the running minimum with ``sq`` when ``at_least``. Rows are padded
+    to ``width`` (whole vectors, no scalar remainder; ``ddx``'s pad holds d_F²)."""
     side = 2 * r + 1
     for t in range(side):
         gx = origin[0] + (cx - r + t) * cell
         ddx[t] = np.float32((gx - px) ** 2)
-    for i in range(side):
-        gy = origin[1] + (cy - r + i) * cell
+    for y in range(side):
+        gy = origin[1] + (cy - r + y) * cell
         ddy = np.float32((gy - py) ** 2 + pz**2)
-        h = row_len[i] // 2
-        j0 = row_start[i]
-        for t in range(row_len[i]):
-            d2[j0 + t] = ddy + ddx[r - h + t]
+        base = y * width
+        if at_least:
+            for t in range(width):
+                v = ddy + ddx[t]
+                sq[base + t] = v if v < sq[base + t] else sq[base + t]
+        else:
+            for t in range(width):
+                sq[base + t] = ddy + ddx[t]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _disc_from_square(sq, r, width, row_len, row_start, out):
+    """The disc's cells of the padded square ``sq``, in the disc's flat order, into ``out``."""
+    for y in range(2 * r + 1):
+        h = row_len[y] // 2
+        j0 = row_start[y]
+        for t in range(row_len[y]):
+            out[j0 + t] = sq[y * width + r - h + t]
 
 
 @njit(cache=True, nogil=True, parallel=True)
@@ -182,23 +198,26 @@ def _state_table(
     """Signal of every action of every distinct state over its window, ``table`` (U, A, C):
     :math:`e^{(\\psi_F - F) / \\tau}` with the smooth maximum, else :math:`\\psi_F`."""
     n_a = amask.shape[2]
-    n_cells = row_start[2 * r + 1]
+    side = 2 * r + 1
+    n_cells = row_start[side]
+    width = (side + 15) // 16 * 16
     floor = c0 - c1 * (log_f32(d2f) * _LOG10E)
     for u in prange(src_b.size):
         b, k = src_b[u], src_k[u]
-        ddx = np.empty(2 * r + 1, np.float32)
-        row = np.empty(n_cells, np.float32)
+        ddx = np.full(width, d2f, np.float32)
+        sq = np.empty(side * width, np.float32)
         for x in range(n_a):
             if not amask[b, k, x]:
                 continue
-            _window_d2(
+            row = table[u, x]
+            _square_d2(
                 nxt[b, k, x, 0], nxt[b, k, x, 1], nxt[b, k, x, 2], ctr[b, k, 0], ctr[b, k, 1],
-                origin, cell, r, row_len, row_start, ddx, row,
+                origin, cell, r, width, ddx, sq, False,
             )  # fmt: skip
+            _disc_from_square(sq, r, width, row_len, row_start, row)
             _psi_inplace(row, n_cells, d02, d2f, c0, c1)
             if soft:
                 _exp_excess(row, n_cells, floor, inv_tau)
-            table[u, x, :n_cells] = row
 
 
 @njit(cache=True, nogil=True)
@@ -236,20 +255,23 @@ def _gain_rows(
     n_cells = row_start[side]
     floor = c0 - c1 * (log_f32(d2f) * _LOG10E)
     scale = tau if soft else _f32(1.0)
+    width = (side + 15) // 16 * 16
     for i in prange(rows_b.size):
         b, k, u = rows_b[i], rows_k[i], rows_u[i]
         cx, cy = ctr[b, k, 0], ctr[b, k, 1]
         w = np.empty(n_cells, np.float32)
-        m = np.full(n_cells, d2f, np.float32)
+        m = np.empty(n_cells, np.float32)
         g = np.empty(n_cells, np.float32)
-        d2 = np.empty(n_cells, np.float32)
-        ddx = np.empty(side, np.float32)
+        sq = np.empty(side * width, np.float32)
+        ddx = np.full(width, d2f, np.float32)
         for y in range(side):
             h = row_len[y] // 2
             j0 = row_start[y]
             for t in range(row_len[y]):
                 w[j0 + t] = weights[cy - r + y, cx - h + t] * scale
-        # o_k as the smallest squared distance of the others within reach.
+        # o_k as the smallest squared distance of the others within reach, on the window's
+        # padded square, then read on the disc.
+        sq.fill(d2f)
         sx, sy = states[b, k, 0], states[b, k, 1]
         for other in range(n_k):
             if other == k or not mask[b, other]:
@@ -257,8 +279,8 @@ def _gain_rows(
             lx, ly, lz = states[b, other, 0], states[b, other, 1], states[b, other, 2]
             if (sx - lx) * (sx - lx) + (sy - ly) * (sy - ly) > pair_reach2:
                 continue
-            _window_d2(lx, ly, lz, cx, cy, origin, cell, r, row_len, row_start, ddx, d2)
-            _min_into(m, d2, n_cells)
+            _square_d2(lx, ly, lz, cx, cy, origin, cell, r, width, ddx, sq, True)
+        _disc_from_square(sq, r, width, row_len, row_start, m)
         _psi_inplace(m, n_cells, d02, d2f, c0, c1)
         if soft:
             _exp_excess(m, n_cells, floor, -inv_tau)
@@ -271,14 +293,6 @@ def _gain_rows(
             else:
                 _hard_gain(table[u, x], m, g, n_cells)
             out[b, k, x] = _dot(w, g, n_cells)
-
-
-@njit(cache=True, nogil=True)
-def _min_into(m, d2, n):
-    """``m[:n] = min(m, d2)``."""
-    for j in range(n):
-        v = d2[j]
-        m[j] = v if v < m[j] else m[j]
 
 
 def _distinct_states(rows_b, rows_k, ids, states, nxt, amask):
@@ -377,6 +391,9 @@ def compiled_windowed_unary(
     # distinct states stays under chunk_elems: the games of a chunk share most members.
     order = np.argsort(_morton(ctr[:, 0, 0], ctr[:, 0, 1]), kind="stable")
     step = max(1, chunk_elems // max(1, K * A * n_cells))
+    # One table for every chunk (at most step * K distinct states): fresh pages would be
+    # faulted in and zeroed by the system at every chunk.
+    buf = np.empty((min(B, step) * K, A, n_cells), dtype=np.float32)
     with POOL_LOCK:
         before = numba.get_num_threads()
         numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
@@ -387,7 +404,7 @@ def compiled_windowed_unary(
                 rb, rk = np.nonzero(sub)
                 rb = games[rb]
                 slot, ub, uk = _distinct_states(rb, rk, ids[rb, rk], states, nxt, amask)
-                table = np.empty((ub.size, A, n_cells), dtype=np.float32)
+                table = buf[: ub.size]
                 _state_table(ub, uk, amask, nxt, ctr, *geom, win.d02, win.d2_floor, win.c0,
                              win.c1, soft, inv_tau, table)  # fmt: skip
                 _gain_rows(rb, rk, slot, mask, amask, states, ctr, raster.weights, *geom,
