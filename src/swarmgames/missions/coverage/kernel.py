@@ -462,31 +462,29 @@ def _pair_tables(games, points, valid, scale, offset, d02, inv_sep, crowd, weigh
 
 @njit(cache=True, nogil=True, parallel=True)
 def _pair_at(profile, points, valid, scale, offset, d02, inv_sep, crowd, weight, out):
-    """``out[b, k, a, l] = W[b, k, a, l, profile[b, l]]`` (B, K, A, K), with the table's
-    arithmetic (the row of (k, a) against the profile's point of every variable)."""
+    """``out[b, l, k * A + a] = W[b, k, a, l, profile[b, l]]`` (B, K, K A): for every
+    variable l, the row of its profile point against every point (k, a), whose squared
+    differences are the table's bit for bit (W is symmetric)."""
     n_b, n_k, n_a = valid.shape
+    n = n_k * n_a
     for b in prange(n_b):
-        px = np.empty(n_k)
-        py = np.empty(n_k)
-        pz = np.empty(n_k)
-        vl = np.empty(n_k, np.float32)
+        px = np.ascontiguousarray(points[b, :, :, 0]).reshape(n)
+        py = np.ascontiguousarray(points[b, :, :, 1]).reshape(n)
+        pz = np.ascontiguousarray(points[b, :, :, 2]).reshape(n)
+        vm = valid[b].reshape(n).astype(np.float32)
+        used = 0
+        for i in range(n):
+            if vm[i] != 0.0:
+                used = i + 1
         for v in range(n_k):
-            c = profile[b, v]
-            px[v], py[v], pz[v] = points[b, v, c, 0], points[b, v, c, 1], points[b, v, c, 2]
-            vl[v] = valid[b, v, c]
-        row = np.empty(n_k, np.float32)
-        for k in range(n_k):
-            sx, sy, sz = px[k], py[k], pz[k]
-            for a in range(n_a):
-                if not valid[b, k, a]:
-                    out[b, k, a, :] = 0.0
-                    continue
-                # (k, a)'s point in k's slot; W[k, a, k, .] is 0 anyway.
-                px[k], py[k], pz[k] = points[b, k, a, 0], points[b, k, a, 1], points[b, k, a, 2]
-                _pair_row(px, py, pz, k, vl, n_k, scale, offset, d02, inv_sep, crowd, weight, row)
-                row[k] = 0.0
-                out[b, k, a, :] = row
-            px[k], py[k], pz[k] = sx, sy, sz
+            row = out[b, v]
+            row[used:] = 0.0
+            i = v * n_a + profile[b, v]
+            if vm[i] == 0.0:
+                row[:used] = 0.0
+            else:
+                _pair_row(px, py, pz, i, vm, used, scale, offset, d02, inv_sep, crowd, weight, row)
+            row[v * n_a : (v + 1) * n_a] = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -546,11 +544,11 @@ class CoveragePairs:
     def at(self, profile: np.ndarray) -> np.ndarray:
         """``W[b, k, a, l, profile[b, l]]``, (B, K, A, K) float32."""
         b, k, a = self.valid.shape
-        out = np.empty((b, k, a, k), dtype=np.float32)
+        out = np.empty((b, k, k * a), dtype=np.float32)
         prof = np.ascontiguousarray(profile, dtype=np.int64)
         with POOL_LOCK:
             _pair_at(prof, self.points, self.valid, *self._consts(), out)
-        return out
+        return out.reshape(b, k, k, a).transpose(0, 2, 3, 1)
 
     def select(self, games) -> CoveragePairs:
         """The source of a subset of games."""
