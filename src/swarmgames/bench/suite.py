@@ -140,7 +140,7 @@ class BenchResult:
 
         t = Table(title="swarmgames bench" + (" (quick)" if self.meta.get("quick") else ""))
         cols = ("N", "stage", "advance", "integrate", "solve", "per game", "peak MiB")
-        for col in (*cols, "vs physical", "target"):
+        for col in (*cols, "vs est.", "target"):
             t.add_column(col, justify="right")
         games = {r["n_robots"]: r for r in self._of("local_game")}
         adv = {r["n_robots"]: r for r in self._of("olsr_advance")}
@@ -161,7 +161,7 @@ class BenchResult:
                 _fmt_s(games.get(n, {}).get("median_s", np.nan)),
                 f"{r['peak_mb']:.0f}",
                 f"{r['ratio_to_physical']:.1f}x" if "ratio_to_physical" in r else "-",
-                "-" if tg is None else f"<= {_fmt_s(tg['limit'])}: {_verdict(tg)}",
+                "-" if tg is None else f"{_verdict(tg)} (<= {_fmt_s(tg['limit'])})",
             )
         notes = [f"slope (N >= 100): {self.slope:.2f}"]
         for r in self._of("target"):

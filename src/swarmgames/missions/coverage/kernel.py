@@ -53,6 +53,7 @@ from swarmgames.missions.coverage.signal import SignalModel
 from swarmgames.missions.coverage.window import (
     RoiRaster,
     _morton,
+    shared_rows,
     window_geometry,
     windowed_unary,
 )
@@ -297,20 +298,9 @@ def _gain_rows(
 
 def _distinct_states(rows_b, rows_k, ids, states, nxt, amask):
     """Slot of every row in the table of distinct states, and the (game, variable) that
-    defines each slot: rows with equal ``ids`` share a slot when their state, next states
-    and valid actions are equal too (a robot's beliefs may differ between games); the others
-    get slots of their own."""
-    _, first, slot = np.unique(ids, return_index=True, return_inverse=True)
-    slot = slot.reshape(-1)
-    fb, fk = rows_b[first[slot]], rows_k[first[slot]]
-    same = (
-        (states[rows_b, rows_k] == states[fb, fk]).all(axis=1)
-        & (nxt[rows_b, rows_k] == nxt[fb, fk]).all(axis=(1, 2))
-        & (amask[rows_b, rows_k] == amask[fb, fk]).all(axis=1)
-    )
-    own = np.flatnonzero(~same)
-    slot[own] = first.size + np.arange(own.size)
-    src = np.concatenate([first, own])
+    defines each slot (:func:`~swarmgames.missions.coverage.window.shared_rows`: equal ids,
+    states, next states and valid actions)."""
+    slot, src = shared_rows(ids, states[rows_b, rows_k], nxt[rows_b, rows_k], amask[rows_b, rows_k])
     return slot, rows_b[src], rows_k[src]
 
 

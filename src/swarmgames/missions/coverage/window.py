@@ -48,7 +48,14 @@ import numpy as np
 from swarmgames.missions.coverage.roi import GaussianROI
 from swarmgames.missions.coverage.signal import SignalModel
 
-__all__ = ["RoiRaster", "floor_distance_sq", "windowed_unary"]
+__all__ = [
+    "RoiRaster",
+    "WindowGeometry",
+    "floor_distance_sq",
+    "shared_rows",
+    "window_geometry",
+    "windowed_unary",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -215,6 +222,43 @@ def window_geometry(
     )
 
 
+def shared_rows(ids: np.ndarray, *values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows that may share their computation: equal ``ids`` *and* equal ``values``.
+
+    Ids such as ``2 * member + is_virtual`` say which rows should hold the same state, but a
+    robot's beliefs about a neighbour may differ between games (routed delivery), so a row
+    whose values differ from its id's first row gets a slot of its own.
+
+    Parameters
+    ----------
+    ids : ndarray of int, shape (R,)
+    *values : ndarray, shape (R, ...)
+        What must be equal (states, next states, valid actions).
+
+    Returns
+    -------
+    slot : ndarray of int64, shape (R,)
+        Rows with equal slots have equal ids and values; slots are 0 .. U - 1.
+    first : ndarray of int64, shape (U,)
+        A row of every slot.
+
+    Examples
+    --------
+    >>> slot, first = shared_rows(np.array([7, 7, 7]), np.array([[1.0], [1.0], [2.0]]))
+    >>> slot.tolist(), first.tolist()
+    ([0, 0, 1], [0, 2])
+    """
+    _, first, slot = np.unique(ids, return_index=True, return_inverse=True)
+    slot = slot.reshape(-1).astype(np.int64)
+    ref = first[slot]
+    same = np.ones(slot.size, dtype=bool)
+    for v in values:
+        same &= (v == v[ref]).reshape(slot.size, -1).all(axis=1)
+    own = np.flatnonzero(~same)
+    slot[own] = first.size + np.arange(own.size)
+    return slot, np.concatenate([first, own]).astype(np.int64)
+
+
 def _morton(ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
     """Z-order (Morton) code of non-negative cell indices < 2**21: nearby cells, nearby codes."""
 
@@ -267,9 +311,9 @@ def windowed_unary(
     chunk_elems : int
         Upper bound on the elements of one (games, K, A, cells) block.
     state_ids : (B, K) int, optional
-        Equal ids for variables with equal states and action sets in every game (for example
-        ``2 * member + is_virtual``: a robot's reported state, or its virtual mean, is the
-        same in every game that holds it); default: compared by value.
+        Hints of equal states across games (for example ``2 * member + is_virtual``); rows
+        with equal ids share their action signals where their states and next states are
+        equal too (:func:`shared_rows`); default: compared by value.
     workers : int
         Threads over chunks of games (numpy releases the GIL; the result does not depend on
         it).
@@ -358,7 +402,11 @@ def windowed_unary(
             (vy[:, None] + offs[:, 0]) * nx + (vx[:, None] + offs[:, 1])
         ]
         if state_ids is not None:
-            key = state_ids[sl].reshape(-1)[rows]
+            key, _ = shared_rows(
+                state_ids[sl].reshape(-1)[rows],
+                st.reshape(b * K, 3)[rows],
+                nxt[sl].reshape(b * K, A * 3)[rows],
+            )
         else:
             key = np.concatenate(
                 [st.reshape(b * K, 3)[rows], nxt[sl].reshape(b * K, A * 3)[rows]], axis=1
