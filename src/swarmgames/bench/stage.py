@@ -27,13 +27,15 @@ __all__ = ["StageBench", "StageParts"]
 
 @dataclass
 class StageParts:
-    """Wall time of the parts of the stages run so far, seconds per stage (lists)."""
+    """Wall time of the parts of the stages run so far, seconds per stage (lists), and the
+    mean neighbourhood size and mean-field sweeps per game of each stage."""
 
     advance_s: list[float] = field(default_factory=list)
     integrate_s: list[float] = field(default_factory=list)
     solve_s: list[float] = field(default_factory=list)
     decide_s: list[float] = field(default_factory=list)
     neighbours: list[float] = field(default_factory=list)
+    iterations: list[float] = field(default_factory=list)
 
     def medians(self) -> dict[str, float]:
         """Median of every part (NaN when no stage ran)."""
@@ -111,3 +113,4 @@ class StageBench:
         p.integrate_s.append(dec.integrate_s)
         p.solve_s.append(dec.solve_s)
         p.neighbours.append(float(np.mean(dec.neighbours)))
+        p.iterations.append(float(np.mean(dec.iterations)))

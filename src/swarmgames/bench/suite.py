@@ -32,6 +32,13 @@ and ratios measured in the same run:
   traced peak memory next to the estimate of :mod:`swarmgames.sim.memory`; and, unless
   ``quick``, the dense case: the same robots on the 25 m disc, every one within range of
   every other (``dense``: K = N).
+* ``target`` — each target of :data:`TARGETS` whose record was measured: the value, the
+  limit and whether it was met (reported, never asserted).
+
+Every ``stage`` record also carries the physical estimate of its work,
+:math:`N \\bar K A G + N \\bar K^2 A^2 \\bar s` simple operations (``G`` cells in a
+variable's window, :math:`\\bar s` mean-field sweeps per game) at 1 ns each on the machine
+(``physical_s``), and the ratio of the measured stage to it.
 
 Timings are wall-clock medians of :func:`~swarmgames.bench.timing.measure` on one process;
 they depend on the machine and its load, so they are never asserted in tests.
@@ -54,7 +61,46 @@ from swarmgames.bench.game import bench_local_game
 from swarmgames.bench.stage import StageBench
 from swarmgames.game.stage import evaluate_games, plan_stage
 
-__all__ = ["QUICK_SIZES", "SIZES", "TAKEOFF_ROBOTS", "BenchResult", "run_suite"]
+__all__ = [
+    "QUICK_SIZES",
+    "SIZES",
+    "TAKEOFF_ROBOTS",
+    "TARGETS",
+    "BenchResult",
+    "Target",
+    "run_suite",
+]
+
+
+@dataclass(frozen=True)
+class Target:
+    """A performance target: ``field`` of the ``benchmark`` record at ``n_robots`` (every
+    size from ``min_n`` when None) at most ``limit``."""
+
+    name: str
+    benchmark: str
+    field: str
+    limit: float
+    unit: str
+    n_robots: int | None = None
+    min_n: int = 0
+    dense: bool | None = None
+
+
+#: The targets of issue 14 (stage cost, growth, memory, the comms layer's share). The dense
+#: stage (300 UAVs all within range) is the ``takeoff`` record with ``dense`` (not ``--quick``).
+TARGETS = (
+    Target("stage at N = 1 000", "stage", "median_s", 0.12, "s", n_robots=1_000),
+    Target("stage at N = 10 000", "stage", "median_s", 1.2, "s", n_robots=10_000),
+    Target("slope, N = 100 ... 10 000", "slope", "value", 1.05, ""),
+    Target("peak memory at N = 10 000", "stage", "peak_mb", 1024.0, "MiB", n_robots=10_000),
+    Target("dense stage (300 UAVs, K = 300)", "takeoff", "median_s", 2.0, "s", dense=True),
+    Target("dense stage memory", "takeoff", "peak_mb", 2048.0, "MiB", dense=True),
+    Target("routed comms share of a stage", "routed_comms", "share_of_stage", 0.15, "", min_n=100),
+)
+
+#: Seconds per simple operation of the physical estimate (10^8 operations in 0.1 s).
+OP_S = 1e-9
 
 SIZES = (10, 100, 1_000, 10_000)
 QUICK_SIZES = (10, 100, 1_000)
@@ -107,12 +153,19 @@ class BenchResult:
         from rich.table import Table
 
         t = Table(title="swarmgames bench" + (" (quick)" if self.meta.get("quick") else ""))
-        for col in ("N", "stage", "advance", "integrate", "solve", "per game", "peak MiB"):
+        cols = ("N", "stage", "advance", "integrate", "solve", "per game", "peak MiB")
+        for col in (*cols, "vs est.", "target"):
             t.add_column(col, justify="right")
         games = {r["n_robots"]: r for r in self._of("local_game")}
         adv = {r["n_robots"]: r for r in self._of("olsr_advance")}
+        stage_targets = {
+            r["n_robots"]: r
+            for r in self._of("target")
+            if r["of"] == "stage" and r["field"] == "median_s"
+        }
         for r in self._of("stage"):
             n = r["n_robots"]
+            tg = stage_targets.get(n)
             t.add_row(
                 f"{n:,}",
                 _fmt_s(r["median_s"]),
@@ -121,8 +174,18 @@ class BenchResult:
                 _fmt_s(r["solve_s"]),
                 _fmt_s(games.get(n, {}).get("median_s", np.nan)),
                 f"{r['peak_mb']:.0f}",
+                f"{r['ratio_to_physical']:.1f}x" if "ratio_to_physical" in r else "-",
+                "-" if tg is None else f"{_verdict(tg)} (<= {_fmt_s(tg['limit'])})",
             )
         notes = [f"slope (N >= 100): {self.slope:.2f}"]
+        for r in self._of("target"):
+            if r["of"] == "stage" and r["field"] == "median_s":
+                continue
+            notes.append(
+                f"target {r['target']}"
+                + (f" (N = {r['n_robots']:,})" if r["of"] == "routed_comms" else "")
+                + f": {r['value']:.3g} <= {r['limit']:g} {r['unit']} {_verdict(r)}"
+            )
         for r in self._of("integrate"):
             if r["n_robots"] == max(x["n_robots"] for x in self._of("integrate")):
                 notes.append(
@@ -225,6 +288,54 @@ class BenchResult:
         return paths
 
 
+def _verdict(rec: dict[str, Any]) -> str:
+    return "pass" if rec["met"] else "FAIL"
+
+
+def _targets(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """A ``target`` record for every target of :data:`TARGETS` that has its record."""
+    out = []
+    for tg in TARGETS:
+        for r in records:
+            if r["benchmark"] != tg.benchmark or tg.field not in r:
+                continue
+            if tg.dense is not None and bool(r.get("dense", False)) != tg.dense:
+                continue
+            n = r.get("n_robots")
+            if (tg.n_robots is not None and n != tg.n_robots) or (n or 0) < tg.min_n:
+                continue
+            value = float(r[tg.field])
+            out.append(
+                {
+                    "benchmark": "target",
+                    "target": tg.name,
+                    "of": tg.benchmark,
+                    "field": tg.field,
+                    "n_robots": n,
+                    "value": value,
+                    "limit": tg.limit,
+                    "unit": tg.unit,
+                    "met": bool(value <= tg.limit),
+                }
+            )
+    return out
+
+
+def _window_cells(config) -> float:
+    """G, the grid cells of a variable's window (0 without a signal floor): the disc of
+    radius :math:`R_F + s` in cells (:mod:`swarmgames.missions.coverage.window`)."""
+    from swarmgames.missions.coverage.signal import SignalModel
+    from swarmgames.missions.coverage.window import floor_distance_sq
+
+    cov, sw = config.mission, config.swarm
+    if getattr(cov, "signal_floor_dbm", None) is None:
+        return 0.0
+    sig = SignalModel(cov.t0_dbm, cov.l0_db, cov.path_exponent, cov.reference_distance_m)
+    reach = np.sqrt(max(floor_distance_sq(sig, cov.signal_floor_dbm) - sw.altitude_m**2, 0.0))
+    rho = (reach + sw.step_m) / cov.grid_cell_m + np.sqrt(0.5)
+    return float(np.pi * rho**2)
+
+
 def _numba_version() -> str | None:
     try:
         import numba
@@ -245,7 +356,9 @@ def _stage_records(n: int, repeats: int, seed: int, workers: int) -> tuple[list[
     tracemalloc.start()
     try:
         sb = StageBench(n, seed=seed, workers=workers)
+        t0 = time.perf_counter()
         sb.step()
+        first_s = time.perf_counter() - t0
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
@@ -257,6 +370,11 @@ def _stage_records(n: int, repeats: int, seed: int, workers: int) -> tuple[list[
         samples.append(time.perf_counter() - t0)
     med = sb.parts.medians()
     n_actions = int(sb.mission.action_model.n_actions)
+    k_mean = med["neighbours"] + 1.0
+    ops = (
+        n * k_mean * n_actions * _window_cells(sb.config)
+        + n * (k_mean * n_actions) ** 2 * med["iterations"]
+    )
     stage = {
         "benchmark": "stage",
         "n_robots": n,
@@ -267,7 +385,12 @@ def _stage_records(n: int, repeats: int, seed: int, workers: int) -> tuple[list[
         "integrate_s": med["integrate_s"],
         "solve_s": med["solve_s"],
         "neighbours_mean": med["neighbours"],
+        "sweeps_mean": med["iterations"],
+        "physical_ops": ops,
+        "physical_s": ops * OP_S,
+        "ratio_to_physical": float(np.median(samples)) / (ops * OP_S) if ops else float("nan"),
         "setup_s": sb.setup_s,
+        "first_stage_s": first_s,
         "peak_mb": peak / 2**20,
         "rss_max_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         "grid_cells": int(sb.mission.roi.n_cells) if hasattr(sb.mission, "roi") else None,
@@ -662,6 +785,7 @@ def run_suite(
         rec = _takeoff_record(takeoff, crowded, 0 if crowded else TAKEOFF_REPEATS, seed)
         records.append(rec)
         _say(progress, f"  {_fmt_s(rec['median_s'])} per stage, peak {rec['peak_mb']:.0f} MiB")
+    records.extend(_targets(records))
     if ns3 is None:
         ns3 = not quick
     if ns3:

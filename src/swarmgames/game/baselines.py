@@ -67,7 +67,7 @@ def best_response(
     """
     if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
         raise ValueError(f"max_iter must be an integer >= 1 (got {max_iter})")
-    u, w, amask = payoffs.unary, payoffs.pair, payoffs.action_mask
+    u, w, amask = payoffs.unary, payoffs.pair_table(), payoffs.action_mask
     b, k_vars, a = u.shape
     x = np.where(payoffs.mask, _masked_argmax(u, amask), 0)
     iterations = np.zeros(b, dtype=np.int64)

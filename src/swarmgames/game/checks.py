@@ -66,8 +66,9 @@ def check_potentials(potentials: Potentials, batch: LocalGameBatch) -> None:
             "potentials.unary of a game depends on the other games of the batch: a sub-batch "
             "gives different values (batched and one-by-one solving would disagree)"
         )
-    if (part.pair is None) != (full.pair is None) or (
-        part.pair is not None and not np.allclose(part.pair, full.pair[half], 1e-9, 1e-12)
+    part_w, full_w = part.pair_table(), full.pair_table(half)
+    if (part_w is None) != (full_w is None) or (
+        part_w is not None and not np.allclose(part_w, full_w, 1e-9, 1e-12)
     ):
         raise ValueError(
             "potentials.pairwise of a game depends on the other games of the batch: a "

@@ -63,20 +63,11 @@ def _check_profile(payoffs: GamePayoffs, profile) -> np.ndarray:
     return x
 
 
-def _pair_at(pair: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``pair[b, k, a, l, x[b, l]]``, shape (B, K, A, K): one flat gather (the same values as
-    ``take_along_axis`` on the last axis, without its five index arrays)."""
-    b, k, a = pair.shape[:3]
-    base = np.arange(b * k * a * k, dtype=np.int64).reshape(b, k, a, k) * pair.shape[4]
-    flat = base + x[:, None, None, :]
-    return np.take(pair.reshape(-1), flat)
-
-
 def _fields(payoffs: GamePayoffs, x: np.ndarray) -> np.ndarray:
     """E[M | X_k = a] with every other variable at x: (B, K, A), up to terms free of x_k."""
     field = payoffs.unary.astype(np.float64)
-    if payoffs.pair is not None:
-        field = field + _pair_at(payoffs.pair, x).sum(axis=3)
+    if payoffs.has_pair:
+        field = field + payoffs.pair_at(x).sum(axis=3)
     return field
 
 
@@ -202,8 +193,8 @@ def profile_payoff(payoffs: GamePayoffs, profile) -> np.ndarray:
     """M(x) of eq. 1 at the pure ``profile`` in each game, (B,)."""
     x = _check_profile(payoffs, profile)
     total = np.take_along_axis(payoffs.unary, x[:, :, None], axis=2)[:, :, 0].sum(axis=1)
-    if payoffs.pair is not None:
-        at_l = _pair_at(payoffs.pair, x)  # (B, K, A, K)
+    if payoffs.has_pair:
+        at_l = payoffs.pair_at(x)  # (B, K, A, K)
         at_kl = np.take_along_axis(at_l, x[:, :, None, None], axis=2)[:, :, 0]  # (B, K, K)
         total = total + 0.5 * at_kl.sum(axis=(1, 2))
     return total
@@ -244,10 +235,11 @@ def enumerate_payoffs(
         shape = [1] * nv
         shape[i] = acts.size
         grid = grid + payoffs.unary[game, k, acts].reshape(shape)
-    if payoffs.pair is not None:
+    if payoffs.has_pair:
+        pair = payoffs.pair_table([game])[0]
         for i, j in itertools.combinations(range(nv), 2):
             vk, vl = valid_vars[i], valid_vars[j]
-            block = payoffs.pair[game, vk][np.ix_(actions[i], [vl], actions[j])][:, 0, :]
+            block = pair[vk][np.ix_(actions[i], [vl], actions[j])][:, 0, :]
             shape = [1] * nv
             shape[i], shape[j] = sizes[i], sizes[j]
             grid = grid + block.reshape(shape)

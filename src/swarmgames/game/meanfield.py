@@ -299,25 +299,51 @@ def _mean_field_compiled(
     payoffs: GamePayoffs, logits: np.ndarray, beta, delta: float, max_iter: int
 ) -> MeanFieldResult:
     """The compiled engine; games whose valid variables are not a prefix are reordered first
-    (stable, so the update order of the valid variables is kept) and scattered back."""
-    from swarmgames.game.meanfield_compiled import solve_batch
+    (stable, so the update order of the valid variables is kept) and scattered back. With a
+    :class:`~swarmgames.game.potentials.PairSource`, the games are solved in chunks whose
+    tables are computed just before (:data:`SOURCE_CHUNK_ELEMS`): the same results as one
+    batch, since every game is solved alone."""
+    from swarmgames.game.meanfield_compiled import PARALLEL_MIN_GAMES, solve_batch
 
     mask = payoffs.mask
+    b, k_vars, a = payoffs.shape
     n_valid = mask.sum(axis=1)
-    pair = payoffs.pair
-    prefix = bool((mask == (np.arange(mask.shape[1]) < n_valid[:, None])).all())
+    prefix = bool((mask == (np.arange(k_vars) < n_valid[:, None])).all())
+    order = np.argsort(~mask, axis=1, kind="stable")
+    rows = np.arange(b)[:, None]
     if not prefix:
-        order = np.argsort(~mask, axis=1, kind="stable")
-        rows = np.arange(mask.shape[0])[:, None]
         logits = logits[rows, order]
-        if pair is not None:
-            pair = np.take_along_axis(pair[rows, order], order[:, None, None, :, None], axis=3)
-    q, its, kls = solve_batch(logits, pair, n_valid, beta, delta, max_iter)
+
+    def reordered(w, games):
+        if w is None or prefix:
+            return w
+        o = order[games]
+        w = w[np.arange(o.shape[0])[:, None], o]
+        return np.take_along_axis(w, o[:, None, None, :, None], axis=3)
+
+    if payoffs.pair_source is None:
+        parts = [(np.arange(b), reordered(payoffs.pair, slice(None)))]
+    else:
+        step = max(PARALLEL_MIN_GAMES, SOURCE_CHUNK_ELEMS // max(1, (k_vars * a) ** 2))
+        parts = (
+            (g, reordered(payoffs.pair_source.table(g), g))
+            for g in (np.arange(lo, min(b, lo + step)) for lo in range(0, b, step))
+        )
+    q = np.zeros((b, k_vars, a), dtype=logits.dtype)
+    its = np.zeros(b, dtype=np.int64)
+    kls = np.zeros(b, dtype=np.float64)
+    for g, w in parts:
+        q[g], its[g], kls[g] = solve_batch(logits[g], w, n_valid[g], beta, delta, max_iter)
     if not prefix:
         back = np.empty_like(q)
         back[rows, order] = q
         q = back
     return MeanFieldResult(q, its, kls < delta, kls)
+
+
+SOURCE_CHUNK_ELEMS = 4_000_000
+"""Entries of the pairwise tables of one chunk of games computed from a ``PairSource``
+(16 MB in float32): at least ``PARALLEL_MIN_GAMES`` games per chunk."""
 
 
 def check_parameters(beta: float, delta: float, max_iter: int) -> None:
@@ -382,7 +408,7 @@ def mean_field(
     if engine == "compiled":
         return _mean_field_compiled(payoffs, logits_all, beta_t, delta, max_iter)
     sequential = engine == "sequential"
-    w_all = payoffs.pair
+    w_all = payoffs.pair_table()
     var_mask = payoffs.mask[:, :, None]
     # A padded variable keeps action 0 finite so that its (unused) softmax stays finite; it is
     # zeroed on output.

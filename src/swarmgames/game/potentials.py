@@ -21,6 +21,11 @@ pairwise ``W[b, k, a, l, c] = α_b (φ_p(k, a, l, c) + φ_p(l, c, k, a))``, so t
 Padding, invalid actions and masked pairs are set to exactly 0 in both tables; non-finite
 values anywhere else are an error naming the robot, variable and action.
 
+A potential whose pairwise term is cheap to compute from the states may instead hand the
+engine a :class:`PairSource` (the optional ``pair_source`` method): W is then computed per
+game where it is used (inside the compiled mean-field kernel's chunks, and at the profiles
+the measurements need), and the ``(B, K, A, K, A)`` table of the batch is never held.
+
 References
 ----------
 .. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
@@ -41,6 +46,7 @@ from swarmgames.game.batch import LocalGameBatch
 __all__ = [
     "FunctionPotentials",
     "GamePayoffs",
+    "PairSource",
     "Potentials",
     "TablePotentials",
     "evaluate_payoffs",
@@ -63,11 +69,38 @@ class Potentials(Protocol):
     there is no pairwise term. When present (and
     the batch has no ``pair_mask``), :func:`evaluate_payoffs` uses it instead of
     ``pairwise``: no ``(B, K, K, A, A)`` table, no transposed copies, half the peak memory.
+
+    Optional on-demand form, tried first: ``pair_source(batch, alpha_b, dtype) ->
+    PairSource`` (or ``None`` to fall back to the forms above), the weighted table W
+    computed per game where it is needed (:class:`PairSource`); the built-in coverage
+    potentials offer it for float32 tables.
     """
 
     def unary(self, batch: LocalGameBatch) -> np.ndarray: ...
 
     def pairwise(self, batch: LocalGameBatch) -> np.ndarray | None: ...
+
+
+@runtime_checkable
+class PairSource(Protocol):
+    """The weighted, symmetrised pairwise table W of a batch, computed on demand.
+
+    ``W[b, k, a, l, c] = α_b (φ_p(k, a, l, c) + φ_p(l, c, k, a))`` in the layout and with the
+    zeros of :attr:`GamePayoffs.pair` (0 unless ``(k, l)`` is a pair of distinct valid
+    variables and both actions are valid), finite, in the payoffs' dtype. Every game's values
+    depend on that game only, and every method returns the same values for it.
+
+    ``table(games)`` returns ``W[games]``, shape ``(len(games), K, A, K, A)``, a new array;
+    ``at(profile)`` returns ``W[b, k, a, l, profile[b, l]]`` for every game, shape
+    ``(B, K, A, K)`` (what the payoff and regret measurements need, without the table);
+    ``select(games)`` returns the source of a subset of games.
+    """
+
+    def table(self, games: np.ndarray) -> np.ndarray: ...
+
+    def at(self, profile: np.ndarray) -> np.ndarray: ...
+
+    def select(self, games) -> PairSource: ...
 
 
 @dataclass(frozen=True)
@@ -153,6 +186,9 @@ class GamePayoffs:
     mask : ndarray of bool, shape (B, K)
     owner : ndarray of int32, shape (B,)
     members : ndarray of int32, shape (B, K)
+    pair_source : PairSource or None
+        W computed on demand instead of held in ``pair`` (then ``pair`` is None). Read W
+        through :attr:`has_pair`, :meth:`pair_table` and :meth:`pair_at`, which serve both.
     """
 
     unary: np.ndarray
@@ -161,6 +197,7 @@ class GamePayoffs:
     mask: np.ndarray
     owner: np.ndarray
     members: np.ndarray
+    pair_source: PairSource | None = None
 
     def __post_init__(self) -> None:
         freeze_fields(self)
@@ -169,6 +206,30 @@ class GamePayoffs:
     def shape(self) -> tuple[int, int, int]:
         """``(B, K, A)``."""
         return self.unary.shape  # type: ignore[return-value]
+
+    @property
+    def has_pair(self) -> bool:
+        """Whether there is a pairwise term (held or on demand)."""
+        return self.pair is not None or self.pair_source is not None
+
+    def pair_table(self, games=None) -> np.ndarray | None:
+        """W of ``games`` (all by default), ``(G, K, A, K, A)``; None without pairwise term.
+        Held tables are returned as they are (read-only), on-demand ones computed."""
+        if self.pair_source is not None:
+            idx = np.arange(self.shape[0]) if games is None else np.arange(self.shape[0])[games]
+            return self.pair_source.table(idx)
+        if self.pair is None or games is None:
+            return self.pair
+        return self.pair[games]
+
+    def pair_at(self, profile: np.ndarray) -> np.ndarray:
+        """``W[b, k, a, l, profile[b, l]]``, shape (B, K, A, K) (a pairwise term needed)."""
+        if self.pair_source is not None:
+            return self.pair_source.at(np.asarray(profile, dtype=np.int64))
+        b, k, a = self.pair.shape[:3]
+        base = np.arange(b * k * a * k, dtype=np.int64).reshape(b, k, a, k) * self.pair.shape[4]
+        flat = base + profile[:, None, None, :]
+        return np.take(self.pair.reshape(-1), flat)
 
     def select(self, games) -> GamePayoffs:
         """The payoffs of a subset of games."""
@@ -179,6 +240,7 @@ class GamePayoffs:
             self.mask[games],
             self.owner[games],
             self.members[games],
+            None if self.pair_source is None else self.pair_source.select(games),
         )
 
 
@@ -249,9 +311,14 @@ def evaluate_payoffs(
     unary = np.where(amask, u, 0.0).astype(dtype, copy=False)
     unary = unary * dtype.type(alpha_a)
 
-    pair = None
+    pair = source = None
     table_fn = getattr(potentials, "pair_table", None)
-    if alpha_b > 0 and callable(table_fn) and batch.pair_mask is None:
+    source_fn = getattr(potentials, "pair_source", None)
+    if alpha_b > 0 and callable(source_fn) and batch.pair_mask is None:
+        source = source_fn(batch, alpha_b, dtype)
+    if source is not None:
+        p = None
+    elif alpha_b > 0 and callable(table_fn) and batch.pair_mask is None:
         pair = _symmetric_table(batch, table_fn, alpha_b, dtype)
         p = None
     else:
@@ -288,6 +355,7 @@ def evaluate_payoffs(
         mask=np.asarray(batch.mask),
         owner=np.asarray(batch.owner),
         members=np.asarray(batch.members),
+        pair_source=source,
     )
 
 

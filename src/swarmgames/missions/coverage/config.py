@@ -100,13 +100,23 @@ class CoverageConfig(Section):
         ),
     )
 
+    kernel: Literal["auto", "compiled", "numpy"] = Field(
+        "auto",
+        description=(
+            "How the unary is integrated under a signal floor: 'compiled' = one fused Numba "
+            "kernel per variable, 'numpy' = numpy passes over (variables x actions x cells) "
+            "blocks, 'auto' = compiled when Numba is installed; the two agree to float32 "
+            "rounding."
+        ),
+    )
+
     workers: int = Field(
         1,
         ge=1,
         le=64,
         description=(
-            "Threads integrating the unary under a signal floor (numpy releases the GIL; the "
-            "result does not depend on it)."
+            "Threads integrating the unary under a signal floor (the compiled kernel's or "
+            "numpy's, which release the GIL; the result does not depend on it)."
         ),
     )
 

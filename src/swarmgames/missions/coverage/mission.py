@@ -112,6 +112,7 @@ def build(config) -> CoverageMission:
             separation_cost_db=cov.separation_cost_db,
             signal_floor_dbm=cov.signal_floor_dbm,
             workers=cov.workers,
+            kernel=cov.kernel,
             separation_mode=cov.separation_mode,
             alpha_b=config.game.alpha_b,
         )

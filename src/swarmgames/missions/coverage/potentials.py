@@ -79,7 +79,10 @@ from swarmgames.missions.coverage.signal import SignalModel
 from swarmgames.missions.coverage.window import RoiRaster, floor_distance_sq, windowed_unary
 from swarmgames.missions.geometry import crowding_blocks
 
-__all__ = ["CoveragePotentials"]
+__all__ = ["KERNELS", "CoveragePotentials"]
+
+#: Values of ``CoveragePotentials(kernel=...)`` (``coverage.kernel``).
+KERNELS = ("auto", "compiled", "numpy")
 
 
 def _run_chunks(fn, starts, workers: int) -> None:
@@ -128,6 +131,13 @@ class CoveragePotentials:
         Upper bound on the elements of one temporary ``(games, K, A, cells)`` block.
     workers : int, default 1
         Threads of the windowed integral (``signal_floor_dbm`` set).
+    kernel : {"auto", "compiled", "numpy"}, default "auto"
+        How the windowed integral is computed: the fused Numba kernel of
+        :mod:`swarmgames.missions.coverage.kernel` (``"compiled"``; ``"auto"`` when Numba is
+        importable) or numpy passes over (variables × actions × cells) blocks
+        (:func:`~swarmgames.missions.coverage.window.windowed_unary`). The two agree to
+        float32 rounding; each is bit-identical from run to run and on any number of threads.
+        Without a signal floor the whole-grid integral is numpy's either way.
     signal_floor_dbm : float or None, default None
         Signals below this level count as the level in eq. 5, and each variable's unary is
         integrated only over the cells its actions can change, relative to what the other
@@ -160,6 +170,7 @@ class CoveragePotentials:
     workers: int = 1
     separation_mode: str = "pairwise"
     alpha_b: float = 0.001
+    kernel: str = "auto"
     last_integrate_s: float = field(default=0.0, init=False)
     _raster: RoiRaster | None = field(default=None, init=False, repr=False)
 
@@ -167,6 +178,10 @@ class CoveragePotentials:
         if self.separation_mode not in ("pairwise", "unary"):
             raise ValueError(
                 f"separation_mode must be 'pairwise' or 'unary' (got {self.separation_mode!r})"
+            )
+        if self.kernel not in KERNELS:
+            raise ValueError(
+                f"kernel must be one of {', '.join(map(repr, KERNELS))} (got {self.kernel!r})"
             )
         if not (np.isfinite(self.alpha_b) and self.alpha_b >= 0):
             raise ValueError(f"alpha_b must be >= 0 and finite (got {self.alpha_b})")
@@ -234,6 +249,22 @@ class CoveragePotentials:
         r = int(np.ceil((reach + float(disp[amask].max(initial=0.0))) / a)) + 1
         if self._raster is None or self._raster.pad < r:
             self._raster = RoiRaster.from_roi(self.roi, r + 2)
+        if self._compiled:
+            from swarmgames.missions.coverage.kernel import compiled_windowed_unary
+
+            return compiled_windowed_unary(
+                self._raster,
+                self.signal,
+                self.signal_floor_dbm,
+                mask,
+                amask,
+                states,
+                nxt,
+                softness_db=self.softness_db,
+                workers=self.workers,
+                state_ids=ids,
+                chunk_elems=self.chunk_elems // 2,
+            )
         return windowed_unary(
             self._raster,
             self.signal,
@@ -309,6 +340,15 @@ class CoveragePotentials:
         return self.separation_cost_db * self.roi.mass * out
 
     @property
+    def _compiled(self) -> bool:
+        """Whether the windowed integral runs the compiled kernel."""
+        if self.kernel == "auto":
+            from swarmgames.game.meanfield import compiled_available
+
+            return compiled_available()
+        return self.kernel == "compiled"
+
+    @property
     def _crowding_on(self) -> bool:
         return self.separation_m > 0 and self.separation_cost_db > 0
 
@@ -357,6 +397,35 @@ class CoveragePotentials:
                 )
                 out[lo:hi, k0:k1] = np.where(ok, val, 0.0)
         return out
+
+    def pair_source(self, batch, alpha_b: float, dtype=np.float64):
+        """The engine's weighted table :math:`\\alpha_b \\times` :meth:`pair_table`, on
+        demand (:class:`~swarmgames.missions.coverage.kernel.CoveragePairs`: computed per
+        chunk of games inside the compiled mean-field solve and at the measured profiles,
+        never for the whole batch), for float32 tables with the compiled kernel; None
+        otherwise (the engine then calls :meth:`pair_table`). Equal to it to float32
+        rounding."""
+        if np.dtype(dtype) != np.float32 or not self._compiled:
+            return None
+        from swarmgames.missions.coverage.kernel import CoveragePairs
+
+        sig = self.signal
+        mask = np.asarray(batch.mask, dtype=bool)
+        valid = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+        d02 = np.float32(sig.reference_distance_m**2)
+        crowd = self._crowding_on and self.separation_mode == "pairwise"
+        return CoveragePairs(
+            points=np.ascontiguousarray(np.asarray(batch.next_states, dtype=float)[..., :3]),
+            valid=np.ascontiguousarray(valid),
+            scale=np.float32(-10.0 * sig.exponent),
+            offset=np.float32(2.0 * (sig.t0_dbm - sig.l0_db) + 10.0 * sig.exponent * np.log10(d02)),
+            d02=d02,
+            inv_sep=np.float32(1.0 / self.separation_m if crowd else 0.0),
+            crowd=np.float32(
+                2.0 * self.separation_cost_db * self.roi.mass / self.alpha_b if crowd else 0.0
+            ),
+            weight=np.float32(alpha_b),
+        )
 
     def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
         """Symmetrised eq. 6 in the engine's layout, ``(B, K, A, K, A)``:

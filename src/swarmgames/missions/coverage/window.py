@@ -48,7 +48,14 @@ import numpy as np
 from swarmgames.missions.coverage.roi import GaussianROI
 from swarmgames.missions.coverage.signal import SignalModel
 
-__all__ = ["RoiRaster", "floor_distance_sq", "windowed_unary"]
+__all__ = [
+    "RoiRaster",
+    "WindowGeometry",
+    "floor_distance_sq",
+    "shared_rows",
+    "window_geometry",
+    "windowed_unary",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,6 +111,154 @@ def _disc_offsets(rho: float) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack([dy.ravel()[keep], dx.ravel()[keep]]), flat
 
 
+@dataclass(frozen=True, eq=False)
+class WindowGeometry:
+    """The windows of one batch of local games and the constants of :math:`\\psi_F` in
+    float32, shared by the numpy and the compiled integration.
+
+    Attributes
+    ----------
+    cell : float
+        Cell side ``a``, metres.
+    radius : int
+        Window radius in cells, ``r = ceil(rho)``.
+    offsets : ndarray of int64, shape (C, 2)
+        Cell offsets (dy, dx) of the window's disc, row-major.
+    flat : ndarray of int64, shape (C,)
+        Their flat index into the (2r + 1)² square.
+    n_cells : int
+        C.
+    ctr : ndarray of int64, shape (B, K, 2)
+        Raster cell (x, y) of each variable's window centre (clipped so that the window stays
+        inside the padded raster).
+    pair_reach : float
+        Horizontal distance beyond which another variable cannot change :math:`o_k` inside
+        the window, :math:`2 R_F + s + a`, metres.
+    d2_floor, d02, c0, c1 : numpy.float32
+        :math:`d_F^2`, :math:`d_0^2` and :math:`\\psi = c_0 - c_1 \\log_{10} d^2`.
+    tau : numpy.float32
+        τ of the smooth maximum.
+    fast_softplus : bool
+        Whether :math:`e^{t / \\tau}` stays finite for every gain ``t`` of the batch.
+    """
+
+    cell: float
+    radius: int
+    offsets: np.ndarray
+    flat: np.ndarray
+    n_cells: int
+    ctr: np.ndarray
+    pair_reach: float
+    d2_floor: np.float32
+    d02: np.float32
+    c0: np.float32
+    c1: np.float32
+    tau: np.float32
+    fast_softplus: bool
+
+
+def window_geometry(
+    raster: RoiRaster,
+    signal: SignalModel,
+    floor_dbm: float,
+    mask: np.ndarray,
+    amask: np.ndarray,
+    states: np.ndarray,
+    nxt: np.ndarray,
+    softness_db: float = 0.0,
+) -> WindowGeometry:
+    """The :class:`WindowGeometry` of a batch (arguments as :func:`windowed_unary`; at least
+    one valid variable).
+
+    Raises
+    ------
+    ValueError
+        The raster's pad is smaller than the window radius.
+    """
+    a = raster.cell
+    d2f = floor_distance_sq(signal, floor_dbm)
+    z2 = np.where(mask, states[..., 2], 0.0) ** 2
+    reach_h = float(np.sqrt(max(d2f - float(z2.min(initial=np.inf)), 0.0)))
+    disp = np.linalg.norm(nxt[..., :2] - states[:, :, None, :2], axis=-1)
+    s_max = float(disp[amask].max(initial=0.0))
+    # A cell's centre is within a/sqrt(2) of the cell holding the UAV: every cell an action
+    # reaches above the floor lies within rho cells of the window's centre cell.
+    rho = (reach_h + s_max) / a + np.sqrt(0.5)
+    r = int(np.ceil(rho))
+    if r > raster.pad:
+        raise ValueError(f"raster pad must be >= the window radius {r} cells (got {raster.pad})")
+    offs, flat = _disc_offsets(rho)
+    # Window of each variable: the disc of cells around its current cell.
+    ctr = np.rint((states[..., :2] - raster.origin) / a).astype(np.int64)  # (B, K, 2) x, y
+    ctr = np.where(mask[..., None], ctr, raster.pad)
+    ny, nx = raster.weights.shape
+    ctr[..., 0] = np.clip(ctr[..., 0], r, nx - 1 - r)
+    ctr[..., 1] = np.clip(ctr[..., 1], r, ny - 1 - r)
+    # ψ = (T0 - L0) - 5 n log10(d² / d0²) = c0 - c1 log10(d²)
+    f32 = np.float32
+    c1 = f32(5.0 * signal.exponent)
+    d02 = f32(signal.reference_distance_m**2)
+    c0 = f32(signal.t0_dbm - signal.l0_db) + c1 * np.log10(d02)
+    # t = ψ_F(next) - o_k <= ψ_R(lowest altitude) - F: exp(t / τ) stays finite below 80.
+    psi_top = float(signal.power(np.sqrt(max(float(z2.min(initial=np.inf)), 0.0))))
+    fast = softness_db > 0 and (psi_top - floor_dbm) / softness_db < 80.0
+    return WindowGeometry(
+        cell=a,
+        radius=r,
+        offsets=offs,
+        flat=flat,
+        n_cells=int(flat.size),
+        ctr=ctr,
+        # Another variable changes o_k only where it reaches above the floor: within R_F of
+        # it. Cells of the window beyond every action's reach hold the floor for all of k's
+        # actions (a term free of x_k whatever o_k is), so o_k is needed only within R_F + s.
+        pair_reach=2.0 * reach_h + s_max + a,
+        d2_floor=f32(d2f),
+        d02=d02,
+        c0=c0,
+        c1=c1,
+        tau=f32(softness_db),
+        fast_softplus=bool(fast),
+    )
+
+
+def shared_rows(ids: np.ndarray, *values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows that may share their computation: equal ``ids`` *and* equal ``values``.
+
+    Ids such as ``2 * member + is_virtual`` say which rows should hold the same state, but a
+    robot's beliefs about a neighbour may differ between games (routed delivery), so a row
+    whose values differ from its id's first row gets a slot of its own.
+
+    Parameters
+    ----------
+    ids : ndarray of int, shape (R,)
+    *values : ndarray, shape (R, ...)
+        What must be equal (states, next states, valid actions).
+
+    Returns
+    -------
+    slot : ndarray of int64, shape (R,)
+        Rows with equal slots have equal ids and values; slots are 0 .. U - 1.
+    first : ndarray of int64, shape (U,)
+        A row of every slot.
+
+    Examples
+    --------
+    >>> slot, first = shared_rows(np.array([7, 7, 7]), np.array([[1.0], [1.0], [2.0]]))
+    >>> slot.tolist(), first.tolist()
+    ([0, 0, 1], [0, 2])
+    """
+    _, first, slot = np.unique(ids, return_index=True, return_inverse=True)
+    slot = slot.reshape(-1).astype(np.int64)
+    ref = first[slot]
+    same = np.ones(slot.size, dtype=bool)
+    for v in values:
+        same &= (v == v[ref]).reshape(slot.size, -1).all(axis=1)
+    own = np.flatnonzero(~same)
+    slot[own] = first.size + np.arange(own.size)
+    return slot, np.concatenate([first, own]).astype(np.int64)
+
+
 def _morton(ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
     """Z-order (Morton) code of non-negative cell indices < 2**21: nearby cells, nearby codes."""
 
@@ -156,9 +311,9 @@ def windowed_unary(
     chunk_elems : int
         Upper bound on the elements of one (games, K, A, cells) block.
     state_ids : (B, K) int, optional
-        Equal ids for variables with equal states and action sets in every game (for example
-        ``2 * member + is_virtual``: a robot's reported state, or its virtual mean, is the
-        same in every game that holds it); default: compared by value.
+        Hints of equal states across games (for example ``2 * member + is_virtual``); rows
+        with equal ids share their action signals where their states and next states are
+        equal too (:func:`shared_rows`); default: compared by value.
     workers : int
         Threads over chunks of games (numpy releases the GIL; the result does not depend on
         it).
@@ -171,38 +326,11 @@ def windowed_unary(
     out = np.zeros((B, K, A))
     if B == 0 or not mask.any():
         return out
-    a = raster.cell
-    d2f = floor_distance_sq(signal, floor_dbm)
-    z2 = np.where(mask, states[..., 2], 0.0) ** 2
-    reach_h = float(np.sqrt(max(d2f - float(z2.min(initial=np.inf)), 0.0)))
-    disp = np.linalg.norm(nxt[..., :2] - states[:, :, None, :2], axis=-1)
-    s_max = float(disp[amask].max(initial=0.0))
-    # A cell's centre is within a/sqrt(2) of the cell holding the UAV: every cell an action
-    # reaches above the floor lies within rho cells of the window's centre cell.
-    rho = (reach_h + s_max) / a + np.sqrt(0.5)
-    r = int(np.ceil(rho))
-    if r > raster.pad:
-        raise ValueError(f"raster pad must be >= the window radius {r} cells (got {raster.pad})")
-    offs, flat = _disc_offsets(rho)
-    side = 2 * r + 1
-    C = flat.size
-    # Window of each variable: the disc of cells around its current cell.
-    ctr = np.rint((states[..., :2] - raster.origin) / a).astype(np.int64)  # (B, K, 2) x, y
-    ctr = np.where(mask[..., None], ctr, raster.pad)
-    ny, nx = raster.weights.shape
-    ctr[..., 0] = np.clip(ctr[..., 0], r, nx - 1 - r)
-    ctr[..., 1] = np.clip(ctr[..., 1], r, ny - 1 - r)
-    # Another variable changes o_k only where it reaches above the floor: within R_F of it.
-    # Cells of the window beyond every action's reach hold the floor for all of k's actions
-    # (a term free of x_k whatever o_k is), so o_k is needed only within R_F + s of k.
-    pair_reach = 2.0 * reach_h + s_max + a
+    win = window_geometry(raster, signal, floor_dbm, mask, amask, states, nxt, softness_db)
+    a, r, offs, flat, C, ctr = win.cell, win.radius, win.offsets, win.flat, win.n_cells, win.ctr
+    side, nx, pair_reach = 2 * r + 1, raster.weights.shape[1], win.pair_reach
     f32 = np.float32
-    d2f32 = f32(d2f)
-    tau = f32(softness_db)
-    # ψ = (T0 - L0) - 5 n log10(d² / d0²) = c0 - c1 log10(d²)
-    c1 = f32(5.0 * signal.exponent)
-    d02 = f32(signal.reference_distance_m**2)
-    c0 = f32(signal.t0_dbm - signal.l0_db) + c1 * np.log10(d02)
+    d2f32, tau, c1, d02, c0 = win.d2_floor, win.tau, win.c1, win.d02, win.c0
 
     def psi(d2):
         # ψ_F from squared distances, in place: floor above d_F, clamp below d0.
@@ -213,9 +341,7 @@ def windowed_unary(
         return d2
 
     step = max(1, chunk_elems // max(1, K * A * C))
-    # t = ψ_F(next) - o_k <= ψ_R(lowest altitude) - F: exp(t / τ) stays finite below 80.
-    psi_top = float(signal.power(np.sqrt(max(float(z2.min(initial=np.inf)), 0.0))))
-    fast_softplus = softness_db > 0 and (psi_top - floor_dbm) / softness_db < 80.0
+    fast_softplus = win.fast_softplus
     # Games in spatial order (by the cell of their first variable): the games of a chunk
     # share most of their members, whose action signals are then computed once.
     order = np.argsort(_morton(ctr[:, 0, 0], ctr[:, 0, 1]), kind="stable")
@@ -276,7 +402,11 @@ def windowed_unary(
             (vy[:, None] + offs[:, 0]) * nx + (vx[:, None] + offs[:, 1])
         ]
         if state_ids is not None:
-            key = state_ids[sl].reshape(-1)[rows]
+            key, _ = shared_rows(
+                state_ids[sl].reshape(-1)[rows],
+                st.reshape(b * K, 3)[rows],
+                nxt[sl].reshape(b * K, A * 3)[rows],
+            )
         else:
             key = np.concatenate(
                 [st.reshape(b * K, 3)[rows], nxt[sl].reshape(b * K, A * 3)[rows]], axis=1
