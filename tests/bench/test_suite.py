@@ -127,7 +127,17 @@ def test_targets_are_reported_pass_or_fail_never_asserted(tiny):
         ("peak memory at N = 10 000", 10_000): False,
         ("routed comms share of a stage", 1_000): True,  # N = 10 is below min_n
     }
-    assert {t.benchmark for t in TARGETS} >= {"stage", "slope", "dense_stage", "routed_comms"}
+    assert {t.benchmark for t in TARGETS} >= {"stage", "slope", "takeoff", "routed_comms"}
+    # The dense stage is the takeoff record with every robot within range, not the other one.
+    dense = [
+        {"benchmark": "takeoff", "n_robots": 300, "dense": False, "median_s": 3.0, "peak_mb": 9},
+        {"benchmark": "takeoff", "n_robots": 300, "dense": True, "median_s": 30.0, "peak_mb": 9},
+    ]
+    got = {r["target"]: (r["value"], r["met"]) for r in _targets(dense)}
+    assert got == {
+        "dense stage (300 UAVs, K = 300)": (30.0, False),
+        "dense stage memory": (9.0, True),
+    }
     slope = [r for r in tiny.records if r["benchmark"] == "target" and r["of"] == "slope"]
     assert len(slope) == 1 and slope[0]["met"] == (slope[0]["value"] <= 1.05)
     for r in (r for r in tiny.records if r["benchmark"] == "stage"):

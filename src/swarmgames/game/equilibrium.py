@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -115,6 +116,9 @@ class OwnerPayoffs:
     mask : ndarray of bool, shape (B, K)
     owner : ndarray of int32, shape (B,)
     members : ndarray of int32, shape (B, K)
+    pair_source : PairSource, optional
+        The games' pairwise source when they have no table (``GamePayoffs.pair_source``);
+        the owner's pairwise terms are then computed at the joint action.
     """
 
     unary: np.ndarray
@@ -123,6 +127,7 @@ class OwnerPayoffs:
     mask: np.ndarray
     owner: np.ndarray
     members: np.ndarray
+    pair_source: Any = None
 
     def __post_init__(self) -> None:
         freeze_fields(self)
@@ -138,6 +143,7 @@ class OwnerPayoffs:
             payoffs.mask,
             payoffs.owner,
             payoffs.members,
+            payoffs.pair_source,
         )
 
     @property
@@ -183,6 +189,8 @@ def global_regret(true_payoffs: GamePayoffs | OwnerPayoffs, joint_actions) -> np
         b, a, k = rows.pair.shape[:3]
         base = np.arange(b * a * k, dtype=np.int64).reshape(b, a, k) * rows.pair.shape[3]
         field = field + np.take(rows.pair.reshape(-1), base + x[:, None, :]).sum(axis=2)
+    elif rows.pair_source is not None:  # W[b, 0, a, l, x_l], computed without the table
+        field = field + rows.pair_source.at(x.astype(np.int64))[:, 0].sum(axis=2)
     amask = rows.action_mask[:, 0]
     best = np.where(amask, field, -np.inf).max(axis=1)
     cur = np.take_along_axis(field, x[:, :1], axis=1)[:, 0]
