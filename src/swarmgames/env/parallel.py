@@ -85,22 +85,13 @@ def parallel_env(scenario: str = "coverage", render_mode: str | None = None, **o
     >>> obs, infos = env.reset(seed=0)                                         # doctest: +SKIP
     """
     from swarmgames.config import resolve_scenario
+    from swarmgames.config.io import toml_literal
 
     env_keys = {"reward", "max_neighbours", "observation"}
     kwargs = {k: options.pop(k) for k in list(options) if k in env_keys}
-    overrides = [f"{k.replace('__', '.')}={_toml(v)}" for k, v in options.items()]
+    overrides = [f"{k.replace('__', '.')}={toml_literal(v)}" for k, v in options.items()]
     config = resolve_scenario(scenario, overrides)
     return SwarmParallelEnv(config, render_mode=render_mode, **kwargs)
-
-
-def _toml(value: Any) -> str:
-    import json
-
-    if isinstance(value, str):
-        return json.dumps(value)
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    return json.dumps(value)
 
 
 class SwarmParallelEnv(ParallelEnv):
@@ -220,8 +211,6 @@ class SwarmParallelEnv(ParallelEnv):
     def step(self, actions: dict[str, int]):
         """Apply every live agent's action for one stage; returns observations, rewards,
         terminations, truncations and infos of the agents that were live."""
-        from swarmgames.game.stage import measure_stage
-
         if self._loop is None:
             raise RuntimeError("call reset() before step()")
         if not self.agents:
@@ -241,18 +230,7 @@ class SwarmParallelEnv(ParallelEnv):
             raise ValueError(f"action of uav_{bad} must be in [0, {self.n_actions})")
         replaced = ~mask[np.arange(self.n_robots), chosen]
         chosen = np.where(replaced, np.argmax(mask, axis=1), chosen)
-        ctl = self._expert
-        dec = measure_stage(
-            ctl.solver,
-            view.snapshot,
-            ctl.hops,
-            view.states,
-            self.mission.action_model,
-            self.mission.potentials,
-            chosen,
-            buckets=ctl.buckets,
-        )
-        record = loop.act(dec)
+        record = loop.act(self._expert.measure(view.snapshot, view.states, chosen))
         live = list(self.agents)
         rewards = self._rewards(record, live)
         done = loop.stage >= self._n_stages
@@ -425,8 +403,12 @@ def _flatten(obs: dict[str, np.ndarray]) -> np.ndarray:
 def _hops(snapshot, members: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """Hop count of every (owner, member) pair in the owner's routing table, (N, K')."""
     n = snapshot.n_robots
-    keys = snapshot.owner.astype(np.int64) * n + snapshot.dest
+    keys = snapshot.owner.astype(np.int64) * n + snapshot.dest  # sorted: the snapshot's order
+    out = np.zeros(members.shape, dtype=np.int64)
+    if keys.size == 0:
+        return out
     want = np.arange(members.shape[0])[:, None] * n + np.where(valid, members, 0)
-    idx = np.clip(np.searchsorted(keys, want), 0, max(keys.size - 1, 0))
-    found = valid & (keys.size > 0) & (keys[idx] == want) if keys.size else np.zeros_like(valid)
-    return np.where(found, np.asarray(snapshot.hops, dtype=np.int64)[idx] if keys.size else 0, 0)
+    idx = np.minimum(np.searchsorted(keys, want), keys.size - 1)
+    found = valid & (keys[idx] == want)
+    out[found] = snapshot.hops[idx[found]]
+    return out

@@ -64,6 +64,21 @@ class _Controller:
         self.solver_name = config.game.solver
         self.solver = solver_from_config(config.game)
 
+    def measure(self, snapshot, states, actions) -> StageSolution:
+        """Given ``actions`` with the measures :func:`~swarmgames.game.stage.solve_stage`
+        takes of its own (payoff, local and global regret on the true local games)."""
+        m = self.mission
+        return measure_stage(
+            self.solver,
+            snapshot,
+            self.hops,
+            states,
+            m.action_model,
+            m.potentials,
+            actions,
+            buckets=self.buckets,
+        )
+
 
 class GameController(_Controller):
     """Every robot builds and solves its local game (all games batched) and acts on its own
@@ -137,16 +152,7 @@ class LloydController(_Controller):
         t0 = time.perf_counter()
         actions = lloyd_actions(states, m.density, m.action_model)
         solve_s = time.perf_counter() - t0
-        stage = measure_stage(
-            self.solver,
-            snapshot,
-            self.hops,
-            states,
-            m.action_model,
-            m.potentials,
-            actions,
-            buckets=self.buckets,
-        )
+        stage = self.measure(snapshot, states, actions)
         return replace(
             stage,
             iterations=np.ones(n, dtype=np.int64),

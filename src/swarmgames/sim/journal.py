@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from swarmgames.errors import RunFolderError
+from swarmgames.network.provider import SnapshotUnsupported
 from swarmgames.sim.loop import LoopState, StageLog, StageRecord
 from swarmgames.sim.tables import TABLE_NAMES, choose_format, open_table, remove_stale, table_file
 
@@ -162,7 +163,7 @@ class RunJournal:
         text = to_toml(config)
         fmt = choose_format(config.sim.tables, start.shape[0], n_stages)
         every = int(config.sim.checkpoint_every)
-        why = _why_not_resumable(loop, every, custom)
+        why = "sim.checkpoint_every = 0" if every == 0 else None
         manifest = {
             "format": FORMAT,
             "scenario": config.name,
@@ -181,7 +182,10 @@ class RunJournal:
         header = {"format": FORMAT, "start": journal.start, "period_s": loop.period_s}
         journal.records.append(pickle.dumps(header, protocol=pickle.HIGHEST_PROTOCOL))
         if why is None:
-            journal._checkpoint(loop, 0.0)
+            try:  # the checkpoint of stage 0 tells whether the run can have any
+                journal._checkpoint(loop, 0.0)
+            except SnapshotUnsupported as exc:  # ns-3, or a provider without state()
+                journal.why_not = str(exc)
         journal._write_manifest("running")
         return journal
 
@@ -326,25 +330,6 @@ class RunJournal:
                 },
             },
         )
-
-
-def _why_not_resumable(loop, every: int, custom: dict) -> str | None:
-    """Why this run will have no checkpoint, or None."""
-    from swarmgames.network.provider import SnapshotUnsupported
-
-    if every == 0:
-        return "sim.checkpoint_every = 0"
-    try:
-        loop.provider.state()
-    except SnapshotUnsupported as exc:
-        return str(exc)
-    except AttributeError:
-        return (
-            f"the network provider {getattr(loop.provider, 'name', '?')!r} has no state()/restore()"
-        )
-    if getattr(loop.comms, "state", None) is None:
-        return f"the communication model {type(loop.comms).__name__} has no state()/restore()"
-    return None
 
 
 def _read_records(path, size: int | None, strict: bool = True) -> tuple[dict, list[StageRecord]]:

@@ -45,7 +45,6 @@ from dataclasses import replace
 import numpy as np
 
 from swarmgames.game.actions import action_mask_of
-from swarmgames.game.stage import measure_stage
 from swarmgames.sim.controllers import GameController
 
 __all__ = ["MpcController"]
@@ -68,12 +67,11 @@ class MpcController:
     def __init__(self, config, mission) -> None:
         self.inner = GameController(config, mission)
         self.mission = mission
-        self.hops, self.buckets = self.inner.hops, self.inner.buckets
-        self.solver = self.inner.solver
+        self.hops = self.inner.hops
         self.horizon = int(config.sim.mpc_horizon)
         self.samples = int(config.sim.mpc_samples)
         self._seed = np.random.SeedSequence(config.seed).spawn(7)[6]
-        self._plan: tuple[int, np.ndarray | None] | None = None
+        self._plan: np.ndarray | None = None  # the chosen actions, when not the myopic ones
         self._plan_s = 0.0
         self.last_scores: np.ndarray = np.zeros(0)
 
@@ -82,7 +80,7 @@ class MpcController:
         """Before the stage's messages: predict every candidate H stages ahead on ``loop``
         (restored to where it was afterwards) and keep the best."""
         if self.horizon <= 1:
-            self._plan, self._plan_s = (loop.stage, None), 0.0
+            self._plan, self._plan_s = None, 0.0
             return
         t0 = time.perf_counter()
         saved = loop.state()
@@ -100,29 +98,25 @@ class MpcController:
             loop.controller = controller
         best = int(np.argmax(scores))  # the first of the best: the myopic one on a tie
         self.last_scores = scores
-        self._plan = (loop.stage, None if best == 0 else candidates[best])
+        self._plan = None if best == 0 else candidates[best]
         self._plan_s = time.perf_counter() - t0
 
     def decide(self, snapshot, states, rng, inbox=None):
         """The planned first action of this stage (the myopic decision when it is the best,
         or without a plan)."""
-        stage, chosen = self._plan if self._plan is not None else (-1, None)
-        planning, self._plan, self._plan_s = self._plan_s, None, 0.0
-        if chosen is None or stage < 0:
+        chosen, planning = self._plan, self._plan_s
+        self._plan, self._plan_s = None, 0.0
+        if chosen is None:
             dec = self.inner.decide(snapshot, states, rng, inbox=inbox)
             return replace(dec, solve_s=dec.solve_s + planning) if planning else dec
         t0 = time.perf_counter()
-        dec = measure_stage(
-            self.solver,
-            snapshot,
-            self.hops,
-            states,
-            self.mission.action_model,
-            self.mission.potentials,
-            chosen,
-            buckets=self.buckets,
-        )
+        dec = self.measure(snapshot, states, chosen)
         return replace(dec, solve_s=planning + time.perf_counter() - t0)
+
+    def measure(self, snapshot, states, actions):
+        """Given ``actions`` with their measures on the true local games (as the game
+        controller's :meth:`~swarmgames.sim.controllers.GameController.measure`)."""
+        return self.inner.measure(snapshot, states, actions)
 
     # ------------------------------------------------------------------ planning
     def _candidates(self, loop, view, myopic) -> list[np.ndarray]:
@@ -162,17 +156,7 @@ class MpcController:
                 actions = self.inner.decide(
                     view.snapshot, view.states, loop.rng, inbox=view.inbox
                 ).actions
-            dec = measure_stage(
-                self.solver,
-                view.snapshot,
-                self.hops,
-                view.states,
-                self.mission.action_model,
-                self.mission.potentials,
-                actions,
-                buckets=self.buckets,
-            )
-            record = loop.act(dec)
+            record = loop.act(self.measure(view.snapshot, view.states, actions))
             pay = np.where(record.robot["alive"], record.robot["payoff"], np.nan)
             total += float(np.nanmean(pay)) if np.isfinite(pay).any() else 0.0
         return total
