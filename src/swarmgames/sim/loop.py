@@ -34,7 +34,7 @@ import numpy as np
 from scipy.sparse import csgraph, csr_array
 
 from swarmgames.arrays import freeze_fields
-from swarmgames.sim.signals import deferred_interrupts
+from swarmgames.sim.signals import deferred_interrupts, raise_if_signalled
 from swarmgames.topology import TopologySnapshot
 
 __all__ = [
@@ -619,6 +619,7 @@ def drive(
                     on_stage(record, loop)
             if progress is not None:
                 progress(loop.stage)
+            raise_if_signalled()  # a signal whose exception C code swallowed
     except KeyboardInterrupt:
         interrupted = True
     return StageLog.from_records(
