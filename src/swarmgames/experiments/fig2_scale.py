@@ -20,6 +20,7 @@ References
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,7 +30,6 @@ import pandas as pd
 
 from swarmgames.config import ScenarioConfig, resolve_scenario
 from swarmgames.config.io import parse_config, to_data
-from swarmgames.config.scaling import scaled_config
 from swarmgames.errors import ConfigError
 
 __all__ = [
@@ -60,39 +60,42 @@ VARIANT_COLUMN = "game.virtual_mean"
 
 def scenario_for(n: int, base: ScenarioConfig) -> ScenarioConfig:
     """``base`` for ``n`` UAVs at its density: the ROI rescaled so that every UAV has the
-    same area to cover (:func:`~swarmgames.config.scaling.scaled_config`, the area per UAV
-    read from ``base``), the take-off disc kept where ``base`` puts it (grown with N by
-    ``swarm.start_max_neighbours``).
+    same area to cover as in ``base``, everything else kept (the take-off disc too, which
+    ``swarm.start_max_neighbours`` grows with N).
+
+    The isotropic ROI :math:`\\mathcal{N}(\\mu, \\sigma^2 I)` at confidence ``c`` is the
+    disc of area :math:`\\pi k^2 \\sigma^2`, :math:`k^2 = -2 \\ln(1 - c)`; holding its area
+    per UAV, :math:`a = \\pi k^2 \\sigma^2_{base} / n_{base}`, gives
+    :math:`\\sigma^2_n = n a / (\\pi k^2)`.
 
     Parameters
     ----------
     n : int
         Swarm size, >= 1.
     base : ScenarioConfig
-        A coverage scenario, e.g. ``fig2-scale``.
+        A coverage scenario with an isotropic ROI, e.g. ``fig2-scale``.
 
     Returns
     -------
     ScenarioConfig
-    """
-    import math
 
+    Raises
+    ------
+    ConfigError
+        ``base`` is not a coverage scenario with an isotropic ROI.
+    """
     cov = base.mission.roi_cov_m2
+    if base.scenario != "coverage" or cov[0][1] != 0.0 or cov[0][0] != cov[1][1]:
+        raise ConfigError(
+            "scenario: fig2-scale rescales an isotropic coverage ROI (got scenario = "
+            f"{base.scenario!r}, coverage.roi_cov_m2 = {cov!r})"
+        )
     k2 = -2.0 * math.log1p(-base.mission.confidence)
     area = math.pi * k2 * cov[0][0] / base.swarm.n_robots  # the base's ROI area per UAV
-    scaled = scaled_config(
-        n,
-        area_per_robot_m2=area,
-        signal_floor_dbm=base.mission.signal_floor_dbm,
-        backend=base.network.backend,
-        workers=base.mission.workers,
-        base=base,
-    )
-    data = to_data(scaled)
-    data["swarm"].update(
-        start_center_m=list(base.swarm.start_center_m), start_radius_m=base.swarm.start_radius_m
-    )
-    data["game"]["dtype"] = base.game.dtype
+    var = n * area / (math.pi * k2)
+    data = to_data(base)
+    data["swarm"]["n_robots"] = n
+    data["coverage"]["roi_cov_m2"] = [[var, 0.0], [0.0, var]]
     data["name"] = f"{base.name}-n{n}"
     return parse_config(data, source=f"{base.name} for {n} UAVs")
 
@@ -210,8 +213,6 @@ def reproduce_fig2_scale(
 
     base = resolve_scenario(SCENARIO) if base is None else base
     root = Path(out)
-    if base.scenario != "coverage":
-        raise ConfigError(f"scenario: fig2-scale needs a coverage scenario (got {base.scenario!r})")
     sizes = _check(sizes, "sizes")
     if not all(isinstance(n, int) and not isinstance(n, bool) and n >= 1 for n in sizes):
         raise ConfigError(f"sizes: must be integers >= 1 (got {sizes!r})")
