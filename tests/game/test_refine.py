@@ -8,7 +8,7 @@ et al. 2022, section II.C), so the local game is such a game.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
@@ -33,13 +33,14 @@ from tests.game.helpers import MODEL, POT, disk_snapshot, random_games, swarm
 @dataclass(frozen=True, eq=False)
 class TransposedSource:
     """A PairSource serving a held table whose ``at`` is a transposed view (the layout of
-    the coverage source), and that refuses to build tables: the refinement must work from
-    ``at`` alone."""
+    the coverage source), recording the largest table it was asked for."""
 
     w: np.ndarray
+    served: list = field(default_factory=list)
 
     def table(self, games):
-        raise AssertionError("the refinement must not build (G, K, A, K, A) tables")
+        self.served.append(len(games))
+        return self.w[np.asarray(games)].copy()
 
     def at(self, profile):
         b, k, a = self.w.shape[:3]
@@ -50,7 +51,7 @@ class TransposedSource:
         return out.reshape(b, k, k, a).transpose(0, 2, 3, 1)
 
     def select(self, games):
-        return TransposedSource(self.w[games])
+        return TransposedSource(self.w[games], self.served)
 
 
 def _payoffs(seed, dtype, source, b=30, k=6, a=5, alpha_b=1.0):
@@ -112,6 +113,17 @@ def test_refinement_of_a_nash_equilibrium_changes_nothing(seed, source):
     assert np.all(ref.moves == 0) and np.all(ref.sweeps == 1) and ref.converged.all()
     again = refine_profiles(pay, refine_profiles(pay, _random_profile(pay, seed)).profile)
     assert np.all(again.moves == 0)
+
+
+def test_with_a_source_the_refinement_builds_tables_of_chunks_only(monkeypatch):
+    import swarmgames.game.meanfield as mf
+
+    monkeypatch.setattr(mf, "SOURCE_CHUNK_ELEMS", 3 * (6 * 5) ** 2)  # three games a chunk
+    pay = _payoffs(7, "float32", True, b=40, alpha_b=3.0)
+    ref = refine_profiles(pay, _random_profile(pay, 7))
+    assert np.all(local_regret(pay, ref.profile) == 0.0)
+    served = pay.pair_source.served
+    assert served and max(served) <= 3
 
 
 @pytest.mark.parametrize("dtype", ["float64", "float32"])

@@ -10,18 +10,22 @@ profile of Algorithm 1, for ``game.refine = "best_response"``; the unary argmax 
 best-response solver): sweeps k = 0, 1, ..., K − 1 (Gauss-Seidel order), each variable
 moving to its best action given the others' current actions, until a sweep changes nothing.
 
-Exactness
----------
+Exactness and cost
+------------------
 The stopping test is :func:`~swarmgames.game.equilibrium.deviation_gains`, the computation
 of :func:`~swarmgames.game.equilibrium.local_regret` itself, on the whole batch: a game is
 done when its gains are exactly 0 there, so the local regret measured afterwards at the
 refined profile is exactly 0 (not merely below a tolerance), in float64 and in float32
-tables. Only the games with a positive gain are swept, each variable's field computed with
-the arithmetic of that test (the same gather and the same summation over the other
-variables); should a sub-batch's rounding ever disagree with the whole batch's, the games
-left are swept on the whole batch's fields. With a :class:`~swarmgames.game.potentials.
-PairSource` the fields come from ``pair_source.at`` of the games being swept: no
-``(B, K, A, K, A)`` table is built.
+tables. Only the games with a positive gain are swept, in up to three rounds:
+
+1. each variable's field read from the pairwise table with the stopping test's gather and
+   summation (a held table), or from tables of chunks of those games computed just before
+   (a :class:`~swarmgames.game.potentials.PairSource`, at most ``SOURCE_CHUNK_ELEMS``
+   entries at a time, as the compiled mean-field engine does: no ``(B, K, A, K, A)`` table
+   of the batch is built), whose sums may round otherwise;
+2. the games the stopping test still finds a gain in (a near-tie that the two roundings
+   see differently) swept with the test's own fields, from ``pair_source.at``;
+3. should that leave any, on the fields of the whole batch, the test's arithmetic exactly.
 
 References
 ----------
@@ -34,12 +38,14 @@ References
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from swarmgames.arrays import freeze_fields
+from swarmgames.game import meanfield
 from swarmgames.game.equilibrium import _check_profile, _fields, deviation_gains
 from swarmgames.game.potentials import GamePayoffs
 from swarmgames.names import REFINE_METHODS
@@ -127,6 +133,35 @@ def _sweeps(
     return sweeps, moves, stable
 
 
+def _gaining(payoffs: GamePayoffs, x: np.ndarray) -> np.ndarray:
+    """Games in which some variable gains by deviating alone from ``x`` (the stopping test:
+    the arithmetic of :func:`~swarmgames.game.equilibrium.local_regret`)."""
+    return np.flatnonzero(deviation_gains(payoffs, x).max(axis=1, initial=0.0) > 0)
+
+
+def _chunked_sweeps(
+    payoffs: GamePayoffs, x: np.ndarray, todo: np.ndarray, budget: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Sweeps of the games ``todo`` of a batch with a pair source, on tables of chunks of
+    them (at most ``SOURCE_CHUNK_ELEMS`` entries each); ``x`` updated in place."""
+    _, k, a = payoffs.shape
+    per = max(1, meanfield.SOURCE_CHUNK_ELEMS // max(1, (k * a) ** 2))
+    sweeps = np.zeros(todo.size, dtype=np.int64)
+    moves = np.zeros(todo.size, dtype=np.int64)
+    for lo in range(0, todo.size, per):
+        idx = todo[lo : lo + per]
+        sub = payoffs.select(idx)
+        held = GamePayoffs(
+            sub.unary, sub.pair_table(), sub.action_mask, sub.mask, sub.owner, sub.members
+        )
+        xs = x[idx]
+        s, m, _ = _sweeps(held, xs, np.ones(idx.size, bool), budget[lo : lo + per])
+        x[idx] = xs
+        sweeps[lo : lo + per], moves[lo : lo + per] = s, m
+        del held, sub  # this chunk's table is freed before the next one is built
+    return sweeps, moves
+
+
 def refine_profiles(payoffs: GamePayoffs, start, max_iter: int = REFINE_MAX_SWEEPS) -> Refinement:
     """Best-response dynamics from ``start`` until no variable of any game gains.
 
@@ -171,29 +206,28 @@ def refine_profiles(payoffs: GamePayoffs, start, max_iter: int = REFINE_MAX_SWEE
     b = x.shape[0]
     sweeps = np.ones(b, dtype=np.int64)  # the stopping test verifies a start that is a NE
     moves = np.zeros(b, dtype=np.int64)
-    todo = np.flatnonzero(deviation_gains(payoffs, x).max(axis=1, initial=0.0) > 0)
+    todo = _gaining(payoffs, x)
     sweeps[todo] = 0
-    whole = False
-    while todo.size:
+    for rnd in itertools.count():
         budget = int(max_iter) - sweeps[todo]
-        if not (budget > 0).any():
+        if not todo.size or not (budget > 0).any():
             break
-        if whole:  # the whole batch's fields, the stopping test's own arithmetic
-            live = np.zeros(b, dtype=bool)
-            live[todo] = True
-            full_budget = np.zeros(b, dtype=np.int64)
-            full_budget[todo] = budget
-            s, m, _ = _sweeps(payoffs, x, live, full_budget)
-            sweeps += s
-            moves += m
-        else:
+        if rnd == 0 and payoffs.pair is None and payoffs.pair_source is not None:
+            s, m = _chunked_sweeps(payoffs, x, todo, budget)
+        elif rnd <= 1:
             xs = x[todo]
             s, m, _ = _sweeps(payoffs.select(todo), xs, np.ones(todo.size, bool), budget)
             x[todo] = xs
-            sweeps[todo] += s
-            moves[todo] += m
-        todo = np.flatnonzero(deviation_gains(payoffs, x).max(axis=1, initial=0.0) > 0)
-        whole = True
+        else:  # the whole batch's fields: the stopping test's arithmetic exactly
+            live = np.zeros(b, dtype=bool)
+            live[todo] = True
+            full = np.zeros(b, dtype=np.int64)
+            full[todo] = budget
+            s, m, _ = _sweeps(payoffs, x, live, full)
+            s, m = s[todo], m[todo]
+        sweeps[todo] += s
+        moves[todo] += m
+        todo = _gaining(payoffs, x)
     converged = np.ones(b, dtype=bool)
     converged[todo] = False
     return Refinement(
