@@ -126,6 +126,25 @@ def test_with_a_source_the_refinement_builds_tables_of_chunks_only(monkeypatch):
     assert served and max(served) <= 3
 
 
+@pytest.mark.parametrize("source", [False, True])
+def test_games_the_first_round_leaves_are_finished_with_the_stopping_test_arithmetic(
+    source, monkeypatch
+):
+    # Should the compiled round round a near-tie otherwise than the stopping test, the games
+    # it leaves gaining are swept again with the test's own fields: here it does nothing.
+    import swarmgames.game.refine as refine
+
+    def idle(payoffs, x, games, budget):
+        return np.ones(len(games), np.int64), np.zeros(len(games), np.int64)
+
+    monkeypatch.setattr(refine, "_compiled", idle)
+    monkeypatch.setattr(refine, "_chunked_sweeps", idle)
+    pay = _payoffs(11, "float32", source, alpha_b=2.0)
+    ref = refine_profiles(pay, _random_profile(pay, 11))
+    assert ref.converged.all() and np.all(local_regret(pay, ref.profile) == 0.0)
+    assert np.all(ref.sweeps[ref.moves > 0] >= 2)
+
+
 @pytest.mark.parametrize("dtype", ["float64", "float32"])
 @pytest.mark.parametrize("source", [False, True])
 def test_a_variable_field_is_the_stopping_test_field_bit_for_bit(dtype, source):

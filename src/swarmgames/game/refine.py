@@ -18,11 +18,12 @@ done when its gains are exactly 0 there, so the local regret measured afterwards
 refined profile is exactly 0 (not merely below a tolerance), in float64 and in float32
 tables. Only the games with a positive gain are swept, in up to three rounds:
 
-1. each variable's field read from the pairwise table with the stopping test's gather and
-   summation (a held table), or from tables of chunks of those games computed just before
-   (a :class:`~swarmgames.game.potentials.PairSource`, at most ``SOURCE_CHUNK_ELEMS``
-   entries at a time, as the compiled mean-field engine does: no ``(B, K, A, K, A)`` table
-   of the batch is built), whose sums may round otherwise;
+1. by the compiled kernel of :mod:`swarmgames.game.refine_compiled` (Numba; without it,
+   numpy steps per variable with the stopping test's gather and summation), on the held
+   pairwise table, or on tables of chunks of those games computed just before (a
+   :class:`~swarmgames.game.potentials.PairSource`, at most ``SOURCE_CHUNK_ELEMS`` entries
+   at a time, as the compiled mean-field engine does: no ``(B, K, A, K, A)`` table of the
+   batch is built), whose sums may round otherwise than the stopping test's;
 2. the games the stopping test still finds a gain in (a near-tie that the two roundings
    see differently) swept with the test's own fields, from ``pair_source.at``;
 3. should that leave any, on the fields of the whole batch, the test's arithmetic exactly.
@@ -139,6 +140,18 @@ def _gaining(payoffs: GamePayoffs, x: np.ndarray) -> np.ndarray:
     return np.flatnonzero(deviation_gains(payoffs, x).max(axis=1, initial=0.0) > 0)
 
 
+def _compiled(
+    payoffs: GamePayoffs, x: np.ndarray, games: np.ndarray, budget: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The sweeps of :func:`_sweeps` for the games ``games`` of held tables, compiled
+    (:mod:`swarmgames.game.refine_compiled`); ``x`` updated in place."""
+    from swarmgames.game.refine_compiled import compiled_sweeps
+
+    return compiled_sweeps(
+        payoffs.unary, payoffs.pair, payoffs.action_mask, payoffs.mask, x, games, budget
+    )
+
+
 def _chunked_sweeps(
     payoffs: GamePayoffs, x: np.ndarray, todo: np.ndarray, budget: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -155,7 +168,10 @@ def _chunked_sweeps(
             sub.unary, sub.pair_table(), sub.action_mask, sub.mask, sub.owner, sub.members
         )
         xs = x[idx]
-        s, m, _ = _sweeps(held, xs, np.ones(idx.size, bool), budget[lo : lo + per])
+        if meanfield.compiled_available():
+            s, m = _compiled(held, xs, np.arange(idx.size), budget[lo : lo + per])
+        else:
+            s, m, _ = _sweeps(held, xs, np.ones(idx.size, bool), budget[lo : lo + per])
         x[idx] = xs
         sweeps[lo : lo + per], moves[lo : lo + per] = s, m
         del held, sub  # this chunk's table is freed before the next one is built
@@ -214,6 +230,8 @@ def refine_profiles(payoffs: GamePayoffs, start, max_iter: int = REFINE_MAX_SWEE
             break
         if rnd == 0 and payoffs.pair is None and payoffs.pair_source is not None:
             s, m = _chunked_sweeps(payoffs, x, todo, budget)
+        elif rnd == 0 and meanfield.compiled_available():
+            s, m = _compiled(payoffs, x, todo, budget)
         elif rnd <= 1:
             xs = x[todo]
             s, m, _ = _sweeps(payoffs.select(todo), xs, np.ones(todo.size, bool), budget)
