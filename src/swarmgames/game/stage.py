@@ -6,14 +6,14 @@ and the public API all call once per control period:
 1. routing tables → every robot's inbox (:func:`~swarmgames.game.local.broadcast`), robots
    split into batches of similar neighbourhood size (:func:`size_groups`);
 2. per batch: the local games (with or without virtual means, eq. 3), their payoff tables
-   (the potentials, eq. 1) and their solution (the configured solver, Algorithm 1);
+   (the potentials, eq. 1) and their solution (the configured solver, Algorithm 1); with
+   ``refine="best_response"`` each game's profile is then refined by best-response sweeps
+   from the solver's profile to a pure Nash equilibrium (:mod:`swarmgames.game.refine`),
+   and the owner plays its action of the refined profile;
 3. robots whose states coincide build the same game and would take the same action for
    ever: they get distinct actions, the order among them drawn from the stage's Generator
    (:func:`~swarmgames.game.colocated.separate_colocated`; nothing changes, and nothing is
    drawn, when no two robots coincide);
-   With ``refine="best_response"`` each game's profile is refined by best-response sweeps
-   from the solver's profile to a pure Nash equilibrium (:mod:`swarmgames.game.refine`),
-   and the owner plays its action of the refined profile;
 4. the measurements from the tables already computed: every robot's payoff :math:`M_i` and
    local regret at the profile it settled on, and its global (stage-game) regret at the
    realised joint action. The global regret needs robot i's *true* local game (actual states,
