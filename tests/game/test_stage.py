@@ -63,6 +63,29 @@ def test_global_regret_reuses_the_solved_tables(virtual_mean):
     assert np.isnan(skipped.global_regret).all()
 
 
+def test_global_regret_when_an_action_is_invalid_at_a_virtual_position():
+    """On the line 0 - 1 - 2 with h = 1, robot 1 reaches outside the games of 0 and 2 and sits
+    there at its virtual mean (eq. 3), (9.9 + 2 + 9.9) / 3 = 7.27, where its own move to +x
+    (valid at its real x = 2) would leave the box x <= 10. The global regret is measured on
+    the true games all the same; robot 1's game (no virtual member) keeps its solved rows."""
+    from swarmgames.game import DisplacementActions, FunctionPotentials
+    from swarmgames.network import TopologySnapshot
+
+    hops = np.array([[0, 1, 2], [1, 0, 1], [2, 1, 0]])
+    snap = TopologySnapshot.from_hop_matrix(0.0, hops)
+    pos = np.array([[9.9, 0.0], [2.0, 0.0], [9.9, 1.0]])
+    model = DisplacementActions.headings(3.0, 4, lower=[-100.0, -100.0], upper=[10.0, 100.0])
+    goal = FunctionPotentials(lambda s: s[..., 0])  # everyone wants +x
+    solver = make_solver("mean_field", alpha_b=0.0)
+    out = solve_stage(solver, snap, 1, pos, model, goal, keep_games=True)
+    assert out.batch.is_virtual[[0, 2]].any(axis=1).all() and not out.batch.is_virtual[1].any()
+    assert out.actions[1] == 1  # +x, invalid at robot 1's virtual position
+    virtual = out.batch.states[0, list(out.batch.members[0]).index(1)]
+    assert not np.asarray(model.valid(virtual))[1]
+    ref = stage_regret(snap, 1, pos, model, goal, out.actions, 1.0, 0.0)
+    np.testing.assert_array_equal(out.global_regret, ref)
+
+
 def test_global_regret_with_an_inbox_reevaluates_only_games_it_got_wrong():
     # With routed delivery, a robot's game is the true one when every member's state reached
     # it unchanged: those tables are reused, and only games holding a stale (here: shifted)

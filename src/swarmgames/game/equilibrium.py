@@ -152,6 +152,21 @@ class OwnerPayoffs:
         """``(B, K, A)`` of the games."""
         return self.action_mask.shape  # type: ignore[return-value]
 
+    def select(self, games) -> OwnerPayoffs:
+        """The rows of the games ``games`` (indices or a boolean mask over B), in that order."""
+        games = np.asarray(games)
+        if games.dtype == bool:
+            games = np.flatnonzero(games)
+        return OwnerPayoffs(
+            self.unary[games],
+            None if self.pair is None else self.pair[games],
+            self.action_mask[games],
+            self.mask[games],
+            self.owner[games],
+            self.members[games],
+            None if self.pair_source is None else self.pair_source.select(games),
+        )
+
 
 def global_regret(true_payoffs: GamePayoffs | OwnerPayoffs, joint_actions) -> np.ndarray:
     """Stage-game regret of each owner at the realised joint action.

@@ -451,7 +451,10 @@ def solve_stage(
             redo = np.asarray(batch.is_virtual).any(axis=1)
             if inbox is not None:
                 redo |= ~_knows_the_truth(batch, messages.views(owners))
-            batches.append((owners, redo, None if redo.all() else OwnerPayoffs.of(pay)))
+            # The games with a virtual member or a wrong view keep no rows: a robot's
+            # realised action need not be valid at its virtual position.
+            rows = None if redo.all() else OwnerPayoffs.of(pay).select(~redo)
+            batches.append((owners, redo, rows))
         if keep_games:
             sols.append((batch, sol))
         del pay  # this batch's table is freed before the next one is built
@@ -496,7 +499,7 @@ def _global_regret(rec: _Record, solver, messages, batches, action_model, potent
 
     for owners, redo, rows in batches:
         if rows is not None:
-            rec.global_regret[owners] = global_regret(rows, rec.actions)
+            rec.global_regret[owners[~redo]] = global_regret(rows, rec.actions)
         if redo.any():
             rec.global_regret[owners[redo]] = again(owners[redo])
 
