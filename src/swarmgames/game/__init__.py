@@ -57,10 +57,17 @@ from swarmgames.game.stage import (
     solve_stage,
     stage_regret,
 )
-from swarmgames.game.virtual import neighbourhood_means, reaches_outside
+from swarmgames.game.virtual import (
+    VIRTUAL_MEANS,
+    neighbourhood_means,
+    outside_means,
+    reaches_outside,
+    virtual_mode,
+)
 
 __all__ = [
     "SOLVERS",
+    "VIRTUAL_MEANS",
     "ActionModel",
     "BestResponseSolver",
     "DisplacementActions",
@@ -103,6 +110,7 @@ __all__ = [
     "mean_field",
     "measure_stage",
     "neighbourhood_means",
+    "outside_means",
     "plan_stage",
     "profile_payoff",
     "pure_equilibria",
@@ -112,4 +120,5 @@ __all__ = [
     "separate_colocated",
     "solve_stage",
     "stage_regret",
+    "virtual_mode",
 ]
