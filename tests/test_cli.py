@@ -343,7 +343,7 @@ def test_every_builtin_mission_runs_from_the_cli(runner, tmp_path, mission):
     assert f"[{mission}]" in (out / "config.toml").read_text()
 
 
-@pytest.mark.parametrize("variant", ["outside", "off"])
+@pytest.mark.parametrize("variant", ["outside", "exact", "off"])
 def test_run_coverage_with_each_virtual_mean_variant(runner, tmp_path, variant):
     out = tmp_path / variant
     args = ["run", "coverage", "--out", str(out), "--no-progress", "--set", "sim.duration_s=6.0"]

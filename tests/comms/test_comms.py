@@ -293,3 +293,30 @@ def test_exact_run_with_routed_comms_costs_more_bytes_than_eq3():
         out[variant] = res.summary
         assert res.summary["virtual_mean"] == variant
     assert out["exact"]["bytes_per_robot_stage"] > out["eq3"]["bytes_per_robot_stage"]
+
+
+def test_averaged_rows_let_receivers_take_the_shared_members_out_exactly():
+    # game.virtual_mean = "outside" over routed delivery: a message's N_j lists the members
+    # whose states its S̄_j averaged, so |N_j| S̄_j − Σ_{k ∈ N_j ∩ N_i} S_k is the sum over
+    # j's outside members. On a static line the second stage's beliefs are the states
+    # themselves and every S̄_j^out is the mean of the actual outside states (eq. 3 over
+    # N_j − N_i); at the first stage j knows only itself and nobody is virtual.
+    from swarmgames.game import DisplacementActions, build_local_games, local_games
+
+    n, h = 9, 1
+    pos = _line(n)
+    pos[:, 1] = np.arange(n) ** 2.0  # distinct y, within range of the neighbours only
+    pos[:, 0] = np.arange(n) * 250.0
+    snap = _bfs_snapshot(pos)
+    model = DisplacementActions.headings(1.0, 4, dim=3)
+    comms = RoutedComms(n, 3, h, averaged_rows=True)
+    first, stats = comms.exchange(1.0, snap, pos, np.random.default_rng(0))
+    assert not build_local_games(first.views(), model, virtual_mean="outside").is_virtual.any()
+    np.testing.assert_array_equal(stats.bytes_sent, message_bytes(3, np.ones(n, int)))
+    second, _ = comms.exchange(2.0, snap, pos, np.random.default_rng(0))
+    got = build_local_games(second.views(), model, virtual_mean="outside")
+    want = local_games(snap, h, pos, model, virtual_mean="outside")
+    np.testing.assert_array_equal(got.members, want.members)
+    np.testing.assert_array_equal(got.is_virtual, want.is_virtual)
+    assert got.is_virtual.any()
+    np.testing.assert_allclose(got.states, want.states, rtol=1e-12, atol=1e-9)

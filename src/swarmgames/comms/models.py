@@ -191,6 +191,9 @@ class Composed:
     ----------
     indptr, members : ndarray of int64
         Each robot's N_i(h) from its own table (CSR, sorted, the robot included).
+    report_indptr, report_members : ndarray of int64
+        The N_i its message carries (CSR, sorted): the table row, or with ``averaged_rows``
+        the members whose states its S̄ averaged (the robot and its fresh beliefs).
     reported : ndarray, shape (N, D)
         The state each robot reports (its own, with the GPS error if any).
     mean : ndarray, shape (N, D)
@@ -198,11 +201,13 @@ class Composed:
     sizes : ndarray of int64, shape (N,)
         Wire bytes of each message.
     nbh : ndarray of int32, shape (N, L)
-        Each robot's N_i(h), -1 padded.
+        The N_i each message carries, -1 padded.
     """
 
     indptr: np.ndarray
     members: np.ndarray
+    report_indptr: np.ndarray
+    report_members: np.ndarray
     reported: np.ndarray
     mean: np.ndarray
     sizes: np.ndarray
@@ -235,6 +240,11 @@ class BeliefComms:
     context : bool
         Flood every message for 2h hops and give every robot's inbox its context
         C_i = ∪_{j ∈ N_i} N_j − N_i (``virtual_mean = "exact"``, module docstring).
+    averaged_rows : bool
+        A message's N_j lists the members whose states its S̄_j averaged (the sender, with
+        its reported state, and the members it holds fresh beliefs of) instead of its whole
+        table row (``virtual_mean = "outside"``: a receiver then takes exactly the shared
+        members out of |N_j| S̄_j).
     """
 
     n_robots: int
@@ -245,6 +255,7 @@ class BeliefComms:
     dead_reckoning: bool = field(default=False, kw_only=True)
     gps_error_m: float = field(default=0.0, kw_only=True)
     context: bool = field(default=False, kw_only=True)
+    averaged_rows: bool = field(default=False, kw_only=True)
     table: BeliefTable = field(init=False)
 
     @property
@@ -271,31 +282,41 @@ class BeliefComms:
     def compose(
         self, t: float, snapshot: TopologySnapshot, states: np.ndarray, rng: np.random.Generator
     ) -> Composed:
-        """Every robot's message at ``t``: its own state, its own table row, and S̄ over what
-        it knows now."""
+        """Every robot's message at ``t``: its own state, its own table row (or, with
+        ``averaged_rows``, the members it averaged), and S̄ over what it knows now."""
         n, dim = states.shape
         indptr, members = _table_rows(snapshot, self.hops)
         row = np.repeat(np.arange(n), np.diff(indptr))
         other = members != row
         known = self.table.lookup(row[other], members[other], t, self.max_age_s)
         found = known >= 0
-        total = states.copy()
+        reported = states
+        if self.gps_error_m > 0:  # what each robot reports of its own position
+            reported = states.copy()
+            reported[:, :2] += rng.normal(0.0, self.gps_error_m, (n, 2))
+        # With averaged_rows the receivers subtract their copies of the states averaged,
+        # the sender's own among them: its reported state is what they hold.
+        total = (reported if self.averaged_rows else states).copy()
         count = np.ones(n)
         if found.any():
             believed, _ = self._believed(known[found], t)
             np.add.at(total, row[other][found], believed)
             np.add.at(count, row[other][found], 1.0)
-        reported = states
-        if self.gps_error_m > 0:  # what each robot reports of its own position
-            reported = states.copy()
-            reported[:, :2] += rng.normal(0.0, self.gps_error_m, (n, 2))
+        rep_indptr, rep_members = indptr, members
+        if self.averaged_rows:
+            keep = ~other
+            keep[np.flatnonzero(other)[found]] = True
+            rep_members = members[keep]
+            rep_indptr = np.concatenate([[0], np.cumsum(np.bincount(row[keep], minlength=n))])
         return Composed(
             indptr=indptr,
             members=members,
+            report_indptr=rep_indptr,
+            report_members=rep_members,
             reported=reported,
             mean=total / count[:, None],
-            sizes=message_bytes(dim, np.diff(indptr)),
-            nbh=pad_rows(indptr, members, np.arange(n)),
+            sizes=message_bytes(dim, np.diff(rep_indptr)),
+            nbh=pad_rows(rep_indptr, rep_members, np.arange(n)),
         )
 
     def deliver(
@@ -342,6 +363,8 @@ class BeliefComms:
         ent_owner = np.concatenate([own, row[other][use]])
         ent_member = np.concatenate([own, members[other][use]])
         rows_padded = composed.nbh
+        if self.averaged_rows:  # the robot's own row in its game is its table row
+            rows_padded = pad_rows(indptr, members, np.arange(n))
         width = max(rows_padded.shape[1], self.table.nbh.shape[1])
         own_nbh = np.pad(
             rows_padded, ((0, 0), (0, width - rows_padded.shape[1])), constant_values=-1

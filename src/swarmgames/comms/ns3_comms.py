@@ -125,8 +125,8 @@ class Ns3Comms(BeliefComms):
         flood = self._flood
         offset = float(t) - flood.now  # the run's clock minus ns-3's
         buffer, offsets = encode_messages(
-            np.arange(n), float(t), composed.reported, composed.mean, composed.indptr,
-            composed.members,
+            np.arange(n), float(t), composed.reported, composed.mean, composed.report_indptr,
+            composed.report_members,
         )  # fmt: skip
         on = sp.diags_array(active.astype(np.int8), dtype=np.int8)
         links = sp.csr_array(on @ table_links(snapshot) @ on)

@@ -100,6 +100,7 @@ def comms_from_config(
     }
     if c.model == "ideal":
         return IdealComms(net.hops, context=beliefs["context"])
+    beliefs["averaged_rows"] = config.game.virtual_mean == "outside"
     if c.model == "ns3":
         if not isinstance(provider, Ns3Provider):
             raise ConfigError(
