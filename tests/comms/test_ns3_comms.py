@@ -279,6 +279,26 @@ def test_cli_and_api_runs_with_the_ns3_model(ns3, tmp_path):
 
 
 @pytest.mark.ns3
+@pytest.mark.parametrize("variant", ["outside", "exact"])
+def test_runs_with_the_ns3_model_for_the_virtual_mean_variants(ns3, tmp_path, variant):
+    import pandas as pd
+    from click.testing import CliRunner
+
+    from swarmgames.cli import cli
+
+    out = tmp_path / variant
+    args = ["run", "--out", str(out), "--no-progress", "--set", "network.backend=ns3"]
+    args += ["--set", "comms.model=ns3", "--set", "sim.duration_s=3"]
+    args += ["--set", f"game.virtual_mean={variant}"]
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    metrics = pd.read_csv(out / "metrics.csv")
+    assert metrics["messages_received"].sum() > 0
+    # "outside" messages list only the members their mean averaged: never more bytes.
+    assert (metrics["bytes_sent"] <= message_bytes(3, metrics["neighbours"] + 1)).all()
+
+
+@pytest.mark.ns3
 def test_context_floods_the_packets_for_2h_hops(ns3):
     # game.virtual_mean = "exact" with h = 1 on a line 300 m apart: the datagrams are relayed
     # once (TTL 2h = 2, where h = 1 relays nothing), so robots hear those two hops away, and

@@ -74,7 +74,9 @@ class Inbox(Protocol):
     this and nothing else.
 
     :class:`Messages` is the exact, instant inbox; :mod:`swarmgames.comms` builds inboxes from
-    what a communication model delivered (late, lost, stale).
+    what a communication model delivered (late, lost, stale). For ``virtual_mean = "exact"``
+    an inbox also needs ``context_sizes`` (|C_i| of every robot, shape (N,)) and
+    ``views(owners, context=True)``; the other variants use only the two members below.
     """
 
     @property
