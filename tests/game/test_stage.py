@@ -112,8 +112,16 @@ def test_exact_stage_solves_members_against_fixed_context():
     counted = batch.players[:, :, None] | batch.players[:, None, :]
     want = np.where(batch.players, x, 0).sum(axis=1) + 0.5 * np.where(counted, w, 0).sum((1, 2))
     np.testing.assert_allclose(out.payoff, want, rtol=1e-12)
-    # Solved on the same games without the context's terms in the payoff: same decisions.
     assert np.all(out.local_regret >= 0)
+    # Best-response refinement never moves a context robot off its one action, and reaches a
+    # pure equilibrium of the members (game/refine.py).
+    out = solve_stage(
+        solver, snap, 2, pos, MODEL, POT, virtual_mean="exact", keep_games=True,
+        refine="best_response",
+    )  # fmt: skip
+    profile = np.asarray(out.solution.profile)[:, :, None]
+    on = np.take_along_axis(out.batch.action_mask, profile, axis=2)[:, :, 0]
+    assert on[out.batch.is_context].all() and np.all(out.local_regret == 0)
 
 
 def test_measure_stage_scores_given_actions_on_the_true_games():
