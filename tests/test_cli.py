@@ -50,6 +50,18 @@ def test_config_check_valid_and_invalid(runner, tmp_path):
     assert "Traceback" not in res.output
 
 
+def test_bad_virtual_mean_exits_2_naming_field_rule_and_value(runner):
+    res = runner.invoke(cli, ["config", "show", "--set", "game.virtual_mean='mean'"])
+    assert res.exit_code == 2
+    assert "game.virtual_mean: must be one of 'eq3', 'outside', 'exact', 'off'" in res.output
+    assert "(got 'mean')" in res.output and "Traceback" not in res.output
+
+
+def test_config_show_prints_the_old_switch_as_the_variant_name(runner):
+    res = runner.invoke(cli, ["config", "show", "--set", "game.virtual_mean=false"])
+    assert res.exit_code == 0 and 'virtual_mean = "off"' in res.output
+
+
 def test_unknown_scenario_exits_2_with_suggestion(runner):
     res = runner.invoke(cli, ["config", "show", "coverag"])
     assert res.exit_code == 2
@@ -329,6 +341,18 @@ def test_every_builtin_mission_runs_from_the_cli(runner, tmp_path, mission):
         assert (out / name).stat().st_size > 0
     assert f'scenario = "{mission}"' in (out / "config.toml").read_text()
     assert f"[{mission}]" in (out / "config.toml").read_text()
+
+
+@pytest.mark.parametrize("variant", ["outside", "exact", "off"])
+def test_run_coverage_with_each_virtual_mean_variant(runner, tmp_path, variant):
+    out = tmp_path / variant
+    args = ["run", "coverage", "--out", str(out), "--no-progress", "--set", "sim.duration_s=6.0"]
+    args += ["--set", "sim.animation=false", "--set", f"game.virtual_mean={variant}"]
+    res = runner.invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["virtual_mean"] == variant and summary["stages"] == 6
+    assert f'virtual_mean = "{variant}"' in (out / "config.toml").read_text()
 
 
 def test_missions_list_and_check(runner):

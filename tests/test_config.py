@@ -64,6 +64,27 @@ def test_wrong_type_is_not_coerced():
         parse_config({"game": {"virtual_mean": 1}})
 
 
+@pytest.mark.parametrize(
+    ("given", "name"),
+    [(True, "eq3"), (False, "off"), ("eq3", "eq3"), ("outside", "outside"), ("exact", "exact")],
+)
+def test_virtual_mean_names_a_variant_and_the_old_switch_still_parses(given, name):
+    cfg = parse_config({"game": {"virtual_mean": given}})
+    assert cfg.game.virtual_mean == name
+    # config show prints the variant's name, which reads back as the same configuration.
+    assert f'virtual_mean = "{name}"' in to_toml(cfg)
+    assert parse_config(tomllib.loads(to_toml(cfg))) == cfg
+
+
+@pytest.mark.parametrize("bad", [1, 0, "on", "True", "EQ3", 1.0, [True]])
+def test_virtual_mean_refuses_other_values_naming_field_rule_and_value(bad):
+    with pytest.raises(ConfigError) as err:
+        parse_config({"game": {"virtual_mean": bad}})
+    msg = str(err.value)
+    assert "game.virtual_mean: must be one of 'eq3', 'outside', 'exact', 'off', true" in msg
+    assert f"(got {bad!r})" in msg
+
+
 def test_out_of_range_names_rule_and_value():
     with pytest.raises(ConfigError, match=r"game\.beta: must be > 0(\.0)? \(got -1\.0\)"):
         parse_config({"game": {"beta": -1.0}})

@@ -9,7 +9,15 @@ schema does not load the layers.
 
 from __future__ import annotations
 
-__all__ = ["BACKENDS", "COMMS_MODELS", "ENGINES", "GAME_SOLVERS", "REFINE_METHODS", "SOLVERS"]
+__all__ = [
+    "BACKENDS",
+    "COMMS_MODELS",
+    "ENGINES",
+    "GAME_SOLVERS",
+    "REFINE_METHODS",
+    "SOLVERS",
+    "VIRTUAL_MEANS",
+]
 
 #: Network providers (``network.backend``).
 BACKENDS = ("olsr", "oracle", "disk", "knn", "ns3")
@@ -30,3 +38,8 @@ ENGINES = ("auto", "compiled", "blas", "sequential")
 
 #: Communication models (``comms.model``).
 COMMS_MODELS = ("ideal", "routed", "ns3")
+
+#: How a local game stands in for the members' neighbours outside it (``game.virtual_mean``):
+#: ``eq3`` the paper's virtual mean over N_j, ``outside`` the mean over N_j − N_i only,
+#: ``exact`` the outside robots themselves as fixed context, ``off`` nothing.
+VIRTUAL_MEANS = ("eq3", "outside", "exact", "off")

@@ -222,3 +222,101 @@ def test_routed_config_rules():
         _cfg(decide_after_s=1.0)
     with pytest.raises(ConfigError, match=r"comms\.loss_rate: must be <= 1"):
         _cfg(loss_rate=1.5)
+
+
+# ------------------------------------------------ virtual_mean = "exact": 2h-hop delivery
+
+
+@pytest.mark.parametrize("h", [1, 2])
+def test_context_floods_to_2h_hops_and_counts_the_longer_flood(h):
+    # Robots on a line 300 m apart (range 368.84 m): hops = index distance. With context
+    # (game.virtual_mean = "exact") a message travels 2h hops instead of h, so every robot
+    # holds the states of robots up to 2h away, relays more and receives more bytes.
+    n = 9
+    pos = _line(n)
+    snap = _bfs_snapshot(pos)
+    plain = RoutedComms(n, 3, h)
+    wide = RoutedComms(n, 3, h, context=True)
+    assert (plain.reach, wide.reach) == (h, 2 * h)
+    _, base = plain.exchange(10.0, snap, pos, np.random.default_rng(0))
+    inbox, stats = wide.exchange(10.0, snap, pos, np.random.default_rng(0))
+    for i in range(n):
+        heard = set(wide.table.sender[wide.table.owner == i].tolist())
+        assert heard == {j for j in range(n) if 0 < abs(i - j) <= 2 * h}
+    assert stats.bytes_forwarded.sum() > base.bytes_forwarded.sum()
+    assert stats.bytes_received.sum() > base.bytes_received.sum()
+    np.testing.assert_array_equal(stats.bytes_sent, base.bytes_sent)  # the same messages
+    # The inbox's context is ∪_{j ∈ N_i} N_j − N_i = the robots h+1 .. 2h hops away, at
+    # their states of this stage, as the exact (ideal) inbox has them.
+    from swarmgames.game.local import broadcast
+
+    ref = broadcast(snap, h, pos).views(context=True)
+    views = inbox.views(context=True)
+    np.testing.assert_array_equal(views.members, ref.members)
+    np.testing.assert_array_equal(views.context, ref.context)
+    np.testing.assert_array_equal(views.context_states, ref.context_states)
+    for i in range(n):
+        got = set(views.context[i][views.context[i] >= 0].tolist())
+        assert got == {j for j in range(n) if h < abs(i - j) <= 2 * h}
+    np.testing.assert_allclose(stats.info_age_s, wide.decide_after_s)
+    np.testing.assert_array_equal(stats.fresh_fraction, base.fresh_fraction)
+
+
+def test_an_inbox_without_context_refuses_exact_views():
+    pos = _line(3)
+    inbox, _ = RoutedComms(3, 3, 1).exchange(1.0, _bfs_snapshot(pos), pos, np.random.default_rng(0))
+    with pytest.raises(ValueError, match="holds no context states"):
+        inbox.views(context=True)
+
+
+def test_ideal_delivery_with_context_counts_the_context_receptions():
+    from swarmgames.comms import IdealComms
+
+    pos = _line(7)
+    snap = _bfs_snapshot(pos)
+    _, base = IdealComms(1).exchange(1.0, snap, pos)
+    _, wide = IdealComms(1, context=True).exchange(1.0, snap, pos)
+    # h = 1 on a line: N_i ∪ C_i is the robots within 2 hops.
+    want = np.array([min(i, 2) + min(6 - i, 2) for i in range(7)])
+    np.testing.assert_array_equal(wide.messages_received, want)
+    np.testing.assert_array_equal(base.messages_received, [1, 2, 2, 2, 2, 2, 1])
+    assert wide.bytes_received.sum() > base.bytes_received.sum()
+
+
+def test_exact_run_with_routed_comms_costs_more_bytes_than_eq3():
+    # The same run with game.virtual_mean = "exact" against "eq3": the state messages are
+    # flooded 2h hops, so the bytes per robot and stage grow; the summary says which.
+    out = {}
+    for variant in ("eq3", "exact"):
+        cfg = _cfg().with_overrides({"game.virtual_mean": variant, "network.hops": 1})
+        res = run(cfg, progress=False, provider=OracleProvider(8))
+        out[variant] = res.summary
+        assert res.summary["virtual_mean"] == variant
+    assert out["exact"]["bytes_per_robot_stage"] > out["eq3"]["bytes_per_robot_stage"]
+
+
+def test_averaged_rows_let_receivers_take_the_shared_members_out_exactly():
+    # game.virtual_mean = "outside" over routed delivery: a message's N_j lists the members
+    # whose states its S̄_j averaged, so |N_j| S̄_j − Σ_{k ∈ N_j ∩ N_i} S_k is the sum over
+    # j's outside members. On a static line the second stage's beliefs are the states
+    # themselves and every S̄_j^out is the mean of the actual outside states (eq. 3 over
+    # N_j − N_i); at the first stage j knows only itself and nobody is virtual.
+    from swarmgames.game import DisplacementActions, build_local_games, local_games
+
+    n, h = 9, 1
+    pos = _line(n)
+    pos[:, 1] = np.arange(n) ** 2.0  # distinct y, within range of the neighbours only
+    pos[:, 0] = np.arange(n) * 250.0
+    snap = _bfs_snapshot(pos)
+    model = DisplacementActions.headings(1.0, 4, dim=3)
+    comms = RoutedComms(n, 3, h, averaged_rows=True)
+    first, stats = comms.exchange(1.0, snap, pos, np.random.default_rng(0))
+    assert not build_local_games(first.views(), model, virtual_mean="outside").is_virtual.any()
+    np.testing.assert_array_equal(stats.bytes_sent, message_bytes(3, np.ones(n, int)))
+    second, _ = comms.exchange(2.0, snap, pos, np.random.default_rng(0))
+    got = build_local_games(second.views(), model, virtual_mean="outside")
+    want = local_games(snap, h, pos, model, virtual_mean="outside")
+    np.testing.assert_array_equal(got.members, want.members)
+    np.testing.assert_array_equal(got.is_virtual, want.is_virtual)
+    assert got.is_virtual.any()
+    np.testing.assert_allclose(got.states, want.states, rtol=1e-12, atol=1e-9)

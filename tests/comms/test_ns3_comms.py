@@ -276,3 +276,46 @@ def test_cli_and_api_runs_with_the_ns3_model(ns3, tmp_path):
     metrics = pd.read_csv(out / "metrics.csv")
     assert (metrics["bytes_sent"] == message_bytes(3, metrics["neighbours"] + 1)).all()
     assert metrics["messages_received"].sum() > 0
+
+
+@pytest.mark.ns3
+@pytest.mark.parametrize("variant", ["outside", "exact"])
+def test_runs_with_the_ns3_model_for_the_virtual_mean_variants(ns3, tmp_path, variant):
+    import pandas as pd
+    from click.testing import CliRunner
+
+    from swarmgames.cli import cli
+
+    out = tmp_path / variant
+    args = ["run", "--out", str(out), "--no-progress", "--set", "network.backend=ns3"]
+    args += ["--set", "comms.model=ns3", "--set", "sim.duration_s=3"]
+    args += ["--set", f"game.virtual_mean={variant}"]
+    res = CliRunner().invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    metrics = pd.read_csv(out / "metrics.csv")
+    assert metrics["messages_received"].sum() > 0
+    # "outside" messages list only the members their mean averaged: never more bytes.
+    assert (metrics["bytes_sent"] <= message_bytes(3, metrics["neighbours"] + 1)).all()
+
+
+@pytest.mark.ns3
+def test_context_floods_the_packets_for_2h_hops(ns3):
+    # game.virtual_mean = "exact" with h = 1 on a line 300 m apart: the datagrams are relayed
+    # once (TTL 2h = 2, where h = 1 relays nothing), so robots hear those two hops away, and
+    # their states fill the inboxes' contexts, ∪_j N_j − N_i = the robots 2 hops away.
+    from swarmgames.comms.ns3_comms import Ns3Comms
+
+    pos = line(7)
+    net, _ = settled(ns3, pos)
+    comms = Ns3Comms(7, 3, 1, net, context=True)
+    assert comms.reach == 2
+    inbox, stats = comms.exchange(31.0, net.advance(31.0, pos), pos, np.random.default_rng(0))
+    got = heard(comms.table, 31.0)
+    assert got <= {(i, j) for i in range(7) for j in range(7) if 0 < abs(i - j) <= 2}
+    assert any(abs(i - j) == 2 for i, j in got)
+    assert stats.messages_forwarded.sum() > 0
+    views = inbox.views(context=True)
+    for i in range(7):
+        ctx = set(views.context[i][views.context[i] >= 0].tolist())
+        assert ctx and ctx <= {j for j in range(7) if abs(i - j) == 2}
+        assert {(i, j) for j in ctx} <= got

@@ -19,10 +19,10 @@ def test_payoff_table_covers_sizes_and_virtual_mean(small_fig2):
     p = small_fig2.payoff
     assert list(p.columns) == ["n_robots", "virtual_mean", "t", "mean_payoff", "coverage"]
     assert sorted(p.groupby(["n_robots", "virtual_mean"]).size().items()) == [
-        ((1, False), 4),
-        ((1, True), 4),
-        ((3, False), 4),
-        ((3, True), 4),
+        ((1, "eq3"), 4),
+        ((1, "off"), 4),
+        ((3, "eq3"), 4),
+        ((3, "off"), 4),
     ]
     # every robot's payoff rises as the swarm moves into the ROI (Fig. 2a)
     for _, grp in p.groupby(["n_robots", "virtual_mean"]):

@@ -44,7 +44,7 @@ class _Counting:
         return self.inner.pairwise(batch)
 
 
-@pytest.mark.parametrize("virtual_mean", [True, False])
+@pytest.mark.parametrize("virtual_mean", [True, False, "eq3", "outside", "exact", "off"])
 def test_global_regret_reuses_the_solved_tables(virtual_mean):
     # The true game of robot i is the solved game itself unless a member of N_i was replaced
     # by a virtual mean: only those games are evaluated a second time, and the result equals
@@ -56,7 +56,10 @@ def test_global_regret_reuses_the_solved_tables(virtual_mean):
     out = solve_stage(solver, snap, 2, pos, MODEL, pot, virtual_mean=virtual_mean)
     virtual = local_games(snap, 2, pos, MODEL).is_virtual.any(axis=1)
     assert 0 < virtual.sum() < 15
-    assert pot.games == 15 + (int(virtual.sum()) if virtual_mean else 0) + 15
+    # A game with virtual means (eq3, outside) or context (exact: the games whose members
+    # reach outside, the same ones) is not the true game; with "off" every game is.
+    redo = int(virtual.sum()) if virtual_mean not in (False, "off") else 0
+    assert pot.games == 15 + redo + 15
     ref = stage_regret(snap, 2, pos, MODEL, POT, out.actions, 1.0, 0.5)
     np.testing.assert_array_equal(out.global_regret, ref)
     skipped = solve_stage(solver, snap, 2, pos, MODEL, pot, global_regret=False)
@@ -107,6 +110,41 @@ def test_global_regret_with_an_inbox_reevaluates_only_games_it_got_wrong():
     assert pot.games == 15 + int(wrong.sum()) + 15  # and the 15 ex-post games
     ref = stage_regret(snap, 2, pos, MODEL, POT, out.actions, 1.0, 0.5)
     np.testing.assert_array_equal(out.global_regret, ref)
+
+
+def test_exact_stage_solves_members_against_fixed_context():
+    # virtual_mean = "exact": the context robots (∪_j N_j − N_i) sit in the game with one
+    # action, all their probability on it; they are not counted as neighbours, and the
+    # robot's payoff counts its members' terms (with the context) but not the context's own.
+    pos, snap = _swarm(15, 5)
+    solver = make_solver("mean_field", alpha_b=0.5)
+    out = solve_stage(solver, snap, 2, pos, MODEL, POT, virtual_mean="exact", keep_games=True)
+    batch, sol = out.batch, out.solution
+    ctx = batch.is_context
+    assert ctx.any() and not batch.is_virtual.any()
+    np.testing.assert_array_equal(out.neighbours, batch.players.sum(axis=1) - 1)
+    np.testing.assert_array_equal(
+        out.neighbours, [snap.neighbourhood(i, 2).size - 1 for i in range(15)]
+    )
+    q = np.where(batch.action_mask, sol.marginals, 0.0)
+    np.testing.assert_allclose(q[ctx].max(axis=1), 1.0)
+    pay = solver.evaluate(batch, POT)
+    profile = np.asarray(sol.profile)
+    x = np.take_along_axis(pay.unary, profile[:, :, None], axis=2)[:, :, 0]
+    w = np.take_along_axis(pay.pair_at(profile), profile[:, :, None, None], axis=2)[:, :, 0]
+    counted = batch.players[:, :, None] | batch.players[:, None, :]
+    want = np.where(batch.players, x, 0).sum(axis=1) + 0.5 * np.where(counted, w, 0).sum((1, 2))
+    np.testing.assert_allclose(out.payoff, want, rtol=1e-12)
+    assert np.all(out.local_regret >= 0)
+    # Best-response refinement never moves a context robot off its one action, and reaches a
+    # pure equilibrium of the members (game/refine.py).
+    out = solve_stage(
+        solver, snap, 2, pos, MODEL, POT, virtual_mean="exact", keep_games=True,
+        refine="best_response",
+    )  # fmt: skip
+    profile = np.asarray(out.solution.profile)[:, :, None]
+    on = np.take_along_axis(out.batch.action_mask, profile, axis=2)[:, :, 0]
+    assert on[out.batch.is_context].all() and np.all(out.local_regret == 0)
 
 
 def test_measure_stage_scores_given_actions_on_the_true_games():

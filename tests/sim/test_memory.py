@@ -170,3 +170,32 @@ def test_olsr_hello_round_peak_is_estimated_within_a_factor_of_two():
     assert peak / 2 <= estimate <= 2 * peak, peak / 2**20
     parts = dict(estimate_memory(config, mission).parts)
     assert parts["network: OLSR tables"] == 16.0 * 100**3
+
+
+@pytest.mark.slow
+def test_exact_games_hold_2h_hops_and_the_estimate_counts_them():
+    # game.virtual_mean = "exact": a game holds N_i and its context (the members'
+    # neighbours), up to 2h hops, so the estimate takes K of 2h hops; it must still bound
+    # the measured peak, and the largest game built must fit in the K it assumed.
+    from swarmgames.config import scaled_config
+
+    base = scaled_config(120, backend="oracle").with_overrides({"sim.warmup_s": 0.0})
+    exact = base.with_overrides({"game.virtual_mean": "exact"})
+    assert neighbourhood_size(exact) > neighbourhood_size(base)
+    mission = build_mission(exact)
+    rng = np.random.default_rng(0)
+    states = mission.initial_states(120, rng)
+    provider = provider_from_config(exact.network, 120, rng)
+    provider.reset(states[:, :3], 0.0)
+    snapshot = provider.advance(0.0, states[:, :3])
+    controller = make_controller(exact, mission)
+    stage = controller.decide(snapshot, states, rng, keep_games=True)
+    biggest = int(stage.batch.mask.sum(axis=1).max())
+    assert int(stage.neighbours.max()) + 1 < biggest <= neighbourhood_size(exact, mission)
+    tracemalloc.start()
+    try:
+        controller.decide(snapshot, states, rng)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak <= estimate_memory(exact, mission, whole_run=False).total_bytes

@@ -9,7 +9,9 @@ message's timestamp: it comes from when messages were sent and arrived, nothing 
 
 :class:`BeliefInbox` is what the game layer builds local games from (the
 :class:`~swarmgames.game.local.Inbox` protocol): robot i's game holds i itself (its own state,
-exactly) and every member of its own N_i(h) whose state it holds fresh enough.
+exactly) and every member of its own N_i(h) whose state it holds fresh enough; for
+``game.virtual_mean = "exact"`` also its context, the robots of those members' reported
+neighbourhoods outside its own table row whose states it holds fresh enough.
 """
 
 from __future__ import annotations
@@ -148,6 +150,14 @@ class BeliefInbox:
         The reported N_j (i's own table row for i), -1 padded.
     age : ndarray, shape (E,)
         Age of each state at the decision, seconds (0 for the owner).
+    ctx_indptr : ndarray of int64, shape (N + 1,), optional
+        Row i holds robot i's context entries in increasing id (``virtual_mean =
+        "exact"``); None: the inbox holds no context.
+    ctx_member : ndarray of int32, shape (E_c,), optional
+    ctx_state : ndarray, shape (E_c, D), optional
+        The context's states as used (dead-reckoned if asked).
+    ctx_age : ndarray, shape (E_c,), optional
+        Their ages at the decision, seconds.
     """
 
     indptr: np.ndarray
@@ -156,6 +166,10 @@ class BeliefInbox:
     mean: np.ndarray
     nbh: np.ndarray
     age: np.ndarray
+    ctx_indptr: np.ndarray | None = None
+    ctx_member: np.ndarray | None = None
+    ctx_state: np.ndarray | None = None
+    ctx_age: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         freeze_fields(self)
@@ -165,15 +179,38 @@ class BeliefInbox:
         """|N_i| of every robot's game as it knows it (owner included), shape (N,)."""
         return np.diff(self.indptr)
 
-    def views(self, owners=None) -> LocalViews:
-        """The padded inboxes of ``owners`` (default: every robot)."""
+    @property
+    def context_sizes(self) -> np.ndarray:
+        """|C_i| of every robot's context as it knows it, shape (N,) (0 without context)."""
+        if self.ctx_indptr is None:
+            return np.zeros(self.indptr.size - 1, dtype=np.int64)
+        return np.diff(self.ctx_indptr)
+
+    def views(self, owners=None, *, context: bool = False) -> LocalViews:
+        """The padded inboxes of ``owners`` (default: every robot); with ``context`` their
+        contexts too (the inbox must hold them: a model delivering to 2h hops)."""
         n = self.indptr.size - 1
         owners = np.arange(n) if owners is None else np.asarray(owners, dtype=np.int64)
-        entry = pad_rows(self.indptr, np.arange(self.member.size), owners.reshape(-1))
+        owners = owners.reshape(-1)
+        entry = pad_rows(self.indptr, np.arange(self.member.size), owners)
         mask = entry >= 0
         safe = np.where(mask, entry, 0)
         zero = ~mask[:, :, None]
         nbh = np.where(mask[:, :, None], self.nbh[safe], -1)
+        extra = {}
+        if context:
+            if self.ctx_indptr is None:
+                raise ValueError(
+                    "this inbox holds no context states: the communication model delivered "
+                    "to h hops only (build it with context=True for virtual_mean = 'exact')"
+                )
+            ce = pad_rows(self.ctx_indptr, np.arange(self.ctx_member.size), owners)
+            cm = ce >= 0
+            # One padding entry past the end, so that an empty context indexes nothing.
+            ids = np.append(self.ctx_member, -1).astype(np.int32)
+            states = np.concatenate([self.ctx_state, np.zeros((1, self.state.shape[1]))])
+            cs = np.where(cm, ce, ids.size - 1)
+            extra = {"context": ids[cs], "context_states": states[cs]}
         return LocalViews(
             owner=owners.astype(np.int32),
             members=np.where(mask, self.member[safe], -1).astype(np.int32),
@@ -181,15 +218,20 @@ class BeliefInbox:
             states=np.where(zero, 0.0, self.state[safe]),
             mean_states=np.where(zero, 0.0, self.mean[safe]),
             neighbourhoods=nbh.astype(np.int32),
+            **extra,
         )
 
     def info_age(self) -> np.ndarray:
-        """Mean age of the others' states each robot uses, seconds, shape (N,); NaN for a
-        robot that uses none."""
+        """Mean age of the others' states each robot uses, seconds, shape (N,): its
+        members' and, with a context, its context's; NaN for a robot that uses none."""
         n = self.indptr.size - 1
         row = np.repeat(np.arange(n), np.diff(self.indptr))
         others = self.member != row
-        total = np.bincount(row[others], weights=self.age[others], minlength=n)
-        count = np.bincount(row[others], minlength=n)
+        rows, ages = row[others], self.age[others]
+        if self.ctx_indptr is not None:
+            rows = np.concatenate([rows, np.repeat(np.arange(n), np.diff(self.ctx_indptr))])
+            ages = np.concatenate([ages, self.ctx_age])
+        total = np.bincount(rows, weights=ages, minlength=n)
+        count = np.bincount(rows, minlength=n)
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.where(count > 0, total / np.maximum(count, 1), np.nan)

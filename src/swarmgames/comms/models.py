@@ -30,6 +30,12 @@ Once per control period, at the stage time t, every robot composes its state mes
     (:class:`~swarmgames.comms.ns3_comms.Ns3Comms`): delivery, delay and loss come from the
     packet simulator.
 
+With ``context`` (``game.virtual_mean = "exact"``) each robot's game also needs the states of
+its context C_i = ∪_{j ∈ N_i} N_j − N_i, robots up to 2h hops away: ``ideal`` then delivers
+every message to the robots whose N_i ∪ C_i holds its sender (and counts those receptions),
+``routed`` and ``ns3`` flood every message for 2h hops instead of h, so the relays, bytes,
+airtime and ages of the longer flood are what the run measures.
+
 All return the inbox the stage pipeline builds the games from and :class:`CommsStats`, the
 per-robot measurements of the stage (information age, freshness, messages and bytes).
 :class:`BeliefComms` is what ``routed`` and ``ns3`` share: composing the messages, merging
@@ -124,9 +130,12 @@ class IdealComms:
     ----------
     hops : int
         h, the neighbourhood radius.
+    context : bool, default False
+        Deliver the messages of every robot's context too (``virtual_mean = "exact"``).
     """
 
     hops: int
+    context: bool = False
 
     def reset(self) -> None:
         """Nothing is remembered between stages."""
@@ -147,11 +156,18 @@ class IdealComms:
         count = np.diff(indptr)
         sizes = message_bytes(states.shape[1], count)
         messages = broadcast(snapshot, self.hops, states)
-        row = np.repeat(np.arange(count.size), count)
-        other = messages.indices != row
+        heard_ptr, heard = messages.indptr, messages.indices
+        if self.context:  # N_i ∪ C_i: the rows of the members' rows
+            n = count.size
+            nbh = sp.csr_array((np.ones(heard.size, dtype=np.int32), heard, heard_ptr), (n, n))
+            reach = nbh @ nbh
+            reach.sort_indices()
+            heard_ptr, heard = reach.indptr, reach.indices
+        row = np.repeat(np.arange(count.size), np.diff(heard_ptr))
+        other = heard != row
         received = np.bincount(row[other], minlength=count.size).astype(np.int64)
         rx_bytes = np.bincount(
-            row[other], weights=sizes[messages.indices[other]], minlength=count.size
+            row[other], weights=sizes[heard[other]], minlength=count.size
         ).astype(np.int64)
         n = count.size
         stats = CommsStats(
@@ -175,6 +191,9 @@ class Composed:
     ----------
     indptr, members : ndarray of int64
         Each robot's N_i(h) from its own table (CSR, sorted, the robot included).
+    report_indptr, report_members : ndarray of int64
+        The N_i its message carries (CSR, sorted): the table row, or with ``averaged_rows``
+        the members whose states its S̄ averaged (the robot and its fresh beliefs).
     reported : ndarray, shape (N, D)
         The state each robot reports (its own, with the GPS error if any).
     mean : ndarray, shape (N, D)
@@ -182,11 +201,13 @@ class Composed:
     sizes : ndarray of int64, shape (N,)
         Wire bytes of each message.
     nbh : ndarray of int32, shape (N, L)
-        Each robot's N_i(h), -1 padded.
+        The N_i each message carries, -1 padded.
     """
 
     indptr: np.ndarray
     members: np.ndarray
+    report_indptr: np.ndarray
+    report_members: np.ndarray
     reported: np.ndarray
     mean: np.ndarray
     sizes: np.ndarray
@@ -216,6 +237,14 @@ class BeliefComms:
         Advance reported positions by reported velocities (states with velocities only).
     gps_error_m : float
         Standard deviation of the error of the x and y a robot reports, metres.
+    context : bool
+        Flood every message for 2h hops and give every robot's inbox its context
+        C_i = ∪_{j ∈ N_i} N_j − N_i (``virtual_mean = "exact"``, module docstring).
+    averaged_rows : bool
+        A message's N_j lists the members whose states its S̄_j averaged (the sender, with
+        its reported state, and the members it holds fresh beliefs of) instead of its whole
+        table row (``virtual_mean = "outside"``: a receiver then takes exactly the shared
+        members out of |N_j| S̄_j).
     """
 
     n_robots: int
@@ -225,7 +254,14 @@ class BeliefComms:
     max_age_s: float = field(default=3.0, kw_only=True)
     dead_reckoning: bool = field(default=False, kw_only=True)
     gps_error_m: float = field(default=0.0, kw_only=True)
+    context: bool = field(default=False, kw_only=True)
+    averaged_rows: bool = field(default=False, kw_only=True)
     table: BeliefTable = field(init=False)
+
+    @property
+    def reach(self) -> int:
+        """How many hops a message travels: h, or 2h with ``context``."""
+        return 2 * int(self.hops) if self.context else int(self.hops)
 
     def __post_init__(self) -> None:
         self.reset()
@@ -246,31 +282,41 @@ class BeliefComms:
     def compose(
         self, t: float, snapshot: TopologySnapshot, states: np.ndarray, rng: np.random.Generator
     ) -> Composed:
-        """Every robot's message at ``t``: its own state, its own table row, and S̄ over what
-        it knows now."""
+        """Every robot's message at ``t``: its own state, its own table row (or, with
+        ``averaged_rows``, the members it averaged), and S̄ over what it knows now."""
         n, dim = states.shape
         indptr, members = _table_rows(snapshot, self.hops)
         row = np.repeat(np.arange(n), np.diff(indptr))
         other = members != row
         known = self.table.lookup(row[other], members[other], t, self.max_age_s)
         found = known >= 0
-        total = states.copy()
+        reported = states
+        if self.gps_error_m > 0:  # what each robot reports of its own position
+            reported = states.copy()
+            reported[:, :2] += rng.normal(0.0, self.gps_error_m, (n, 2))
+        # With averaged_rows the receivers subtract their copies of the states averaged,
+        # the sender's own among them: its reported state is what they hold.
+        total = (reported if self.averaged_rows else states).copy()
         count = np.ones(n)
         if found.any():
             believed, _ = self._believed(known[found], t)
             np.add.at(total, row[other][found], believed)
             np.add.at(count, row[other][found], 1.0)
-        reported = states
-        if self.gps_error_m > 0:  # what each robot reports of its own position
-            reported = states.copy()
-            reported[:, :2] += rng.normal(0.0, self.gps_error_m, (n, 2))
+        rep_indptr, rep_members = indptr, members
+        if self.averaged_rows:
+            keep = ~other
+            keep[np.flatnonzero(other)[found]] = True
+            rep_members = members[keep]
+            rep_indptr = np.concatenate([[0], np.cumsum(np.bincount(row[keep], minlength=n))])
         return Composed(
             indptr=indptr,
             members=members,
+            report_indptr=rep_indptr,
+            report_members=rep_members,
             reported=reported,
             mean=total / count[:, None],
-            sizes=message_bytes(dim, np.diff(indptr)),
-            nbh=pad_rows(indptr, members, np.arange(n)),
+            sizes=message_bytes(dim, np.diff(rep_indptr)),
+            nbh=pad_rows(rep_indptr, rep_members, np.arange(n)),
         )
 
     def deliver(
@@ -317,6 +363,8 @@ class BeliefComms:
         ent_owner = np.concatenate([own, row[other][use]])
         ent_member = np.concatenate([own, members[other][use]])
         rows_padded = composed.nbh
+        if self.averaged_rows:  # the robot's own row in its game is its table row
+            rows_padded = pad_rows(indptr, members, np.arange(n))
         width = max(rows_padded.shape[1], self.table.nbh.shape[1])
         own_nbh = np.pad(
             rows_padded, ((0, 0), (0, width - rows_padded.shape[1])), constant_values=-1
@@ -324,6 +372,11 @@ class BeliefComms:
         their_nbh = self.table.nbh[idx[use]]
         their_nbh = np.pad(their_nbh, ((0, 0), (0, width - their_nbh.shape[1])), constant_values=-1)
         order = np.lexsort((np.where(ent_member == ent_owner, -1, ent_member), ent_owner))
+        extra = {}
+        if self.context:
+            extra = self._context(
+                decide, indptr, members, ent_owner, np.concatenate([own_nbh, their_nbh])
+            )
         inbox = BeliefInbox(
             indptr=np.concatenate([[0], np.cumsum(np.bincount(ent_owner, minlength=n))]),
             member=ent_member[order].astype(np.int32),
@@ -331,6 +384,7 @@ class BeliefComms:
             mean=np.concatenate([composed.mean, self.table.mean[idx[use]]])[order],
             nbh=np.concatenate([own_nbh, their_nbh])[order].astype(np.int32),
             age=np.concatenate([np.zeros(n), age])[order],
+            **extra,
         )
         expected = np.bincount(row[other], minlength=n)
         used = np.bincount(row[other][use], minlength=n)
@@ -340,6 +394,29 @@ class BeliefComms:
             **counters,
         )
         return inbox, stats
+
+    def _context(self, decide, indptr, members, ent_owner, ent_nbh) -> dict[str, np.ndarray]:
+        """Every robot's context at the decision: the robots of the reported neighbourhoods
+        of the members it uses (``ent_nbh``, one row per entry of ``ent_owner``) that are
+        not in its own table row, as far as it holds their states fresh enough."""
+        n = self.n_robots
+        owner = np.broadcast_to(np.asarray(ent_owner, np.int64)[:, None], ent_nbh.shape)
+        ok = ent_nbh >= 0
+        keys = np.unique(owner[ok] * n + ent_nbh[ok])
+        row = np.repeat(np.arange(n), np.diff(indptr))
+        inside = np.sort(row * n + members)  # the table rows (the owner included)
+        pos = np.minimum(np.searchsorted(inside, keys), inside.size - 1)
+        keys = keys[inside[pos] != keys]
+        who, ctx = np.divmod(keys, n)
+        idx = self.table.lookup(who, ctx, decide, self.max_age_s)
+        use = idx >= 0
+        state, age = self._believed(idx[use], decide)
+        return {
+            "ctx_indptr": np.concatenate([[0], np.cumsum(np.bincount(who[use], minlength=n))]),
+            "ctx_member": ctx[use].astype(np.int32),
+            "ctx_state": state,
+            "ctx_age": age,
+        }
 
 
 @dataclass(eq=False)
@@ -442,8 +519,8 @@ class RoutedComms(BeliefComms):
         return ok
 
     def deliver(self, t, snapshot, states, composed, rng, active):
-        """Flood over the links that exist physically and in the forwarder's table; each hop
-        takes ``hop_delay_s`` plus the frame's airtime."""
+        """Flood over the links that exist physically and in the forwarder's table, for h hops
+        (2h with ``context``); each hop takes ``hop_delay_s`` plus the frame's airtime."""
         n = states.shape[0]
         pos = states[:, :3]
         adjacency = self._links(snapshot, pos, rng)
@@ -455,7 +532,7 @@ class RoutedComms(BeliefComms):
         sizes = composed.sizes
         delivery = flood(
             adjacency,
-            self.hops,
+            self.reach,
             sizes,
             link_success=lambda u, v: self._arrives(u, v, pos, rng),
             senders=active,

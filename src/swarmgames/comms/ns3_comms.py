@@ -3,7 +3,8 @@
 With ``network.backend = "ns3"`` and ``comms.model = "ns3"``, every robot's state message of
 every control period is a UDP datagram whose payload is the wire format's bytes
 (:func:`~swarmgames.comms.wire.encode_messages`), broadcast through the provider's own ns-3
-nodes and relayed for h hops (:class:`~swarmgames.network.ns3_packets.StateFlood`). ns-3
+nodes and relayed for h hops, 2h for ``game.virtual_mean = "exact"``
+(:class:`~swarmgames.network.ns3_packets.StateFlood`). ns-3
 runs from the stage time t to the decision at ``t + decide_after_s``; the robots decide with
 what their sockets received by then. Everything else is the routed model's
 (:class:`~swarmgames.comms.models.BeliefComms`): the message contents, the belief tables, the
@@ -120,12 +121,12 @@ class Ns3Comms(BeliefComms):
         """Broadcast the messages in ns-3, run it to the decision and read the sockets."""
         n = states.shape[0]
         if self._flood is None or not self._flood.live:
-            self._flood = StateFlood(self.provider, self.hops)
+            self._flood = StateFlood(self.provider, self.reach)
         flood = self._flood
         offset = float(t) - flood.now  # the run's clock minus ns-3's
         buffer, offsets = encode_messages(
-            np.arange(n), float(t), composed.reported, composed.mean, composed.indptr,
-            composed.members,
+            np.arange(n), float(t), composed.reported, composed.mean, composed.report_indptr,
+            composed.report_members,
         )  # fmt: skip
         on = sp.diags_array(active.astype(np.int8), dtype=np.int8)
         links = sp.csr_array(on @ table_links(snapshot) @ on)

@@ -30,7 +30,14 @@ from typing import Any, Literal
 
 from pydantic import Field, SerializeAsAny, field_validator, model_validator
 
-from swarmgames.names import BACKENDS, COMMS_MODELS, ENGINES, GAME_SOLVERS, REFINE_METHODS
+from swarmgames.names import (
+    BACKENDS,
+    COMMS_MODELS,
+    ENGINES,
+    GAME_SOLVERS,
+    REFINE_METHODS,
+    VIRTUAL_MEANS,
+)
 from swarmgames.section import Section
 
 __all__ = [
@@ -277,8 +284,13 @@ class GameConfig(_Section):
             "its refined action)."
         ),
     )
-    virtual_mean: bool = Field(
-        True, description="Replace neighbours with outside neighbours by virtual means (eq. 3)."
+    virtual_mean: Literal[VIRTUAL_MEANS] = Field(
+        "eq3",
+        description="How a neighbour whose own neighbourhood reaches outside the local game "
+        "stands in for the outside: eq3 (the paper's virtual mean over N_j, eq. 3; true is "
+        "the same), outside (the mean over N_j - N_i only), exact (the outside robots "
+        "themselves as fixed context, their states flooded to 2h hops), off (reported states; "
+        "false is the same).",
     )
     beta: float = Field(
         50.0, gt=0, description="Inverse temperature of Q_j(x) ∝ exp(beta · E[M_i | x]), 1/payoff."
@@ -310,6 +322,20 @@ class GameConfig(_Section):
         description="Local games are solved in this many batches of similar neighbourhood "
         "size (less padding); 0 = automatic (one per 128 robots, at most 8).",
     )
+
+    @field_validator("virtual_mean", mode="before")
+    @classmethod
+    def _virtual_mean_switch(cls, value: Any) -> Any:
+        # The boolean switch of earlier versions names two of the variants; anything else
+        # that is not one of their names is refused (1 is not true here).
+        if isinstance(value, bool):
+            return "eq3" if value else "off"
+        if not isinstance(value, str) or value not in VIRTUAL_MEANS:
+            raise ValueError(
+                f"must be one of {', '.join(map(repr, VIRTUAL_MEANS))}, true (= 'eq3') or "
+                f"false (= 'off') (got {value!r})"
+            )
+        return value
 
     @field_validator("solver", mode="before")
     @classmethod

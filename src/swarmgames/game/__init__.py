@@ -62,10 +62,17 @@ from swarmgames.game.stage import (
     solve_stage,
     stage_regret,
 )
-from swarmgames.game.virtual import neighbourhood_means, reaches_outside
+from swarmgames.game.virtual import (
+    VIRTUAL_MEANS,
+    neighbourhood_means,
+    outside_means,
+    reaches_outside,
+    virtual_mode,
+)
 
 __all__ = [
     "SOLVERS",
+    "VIRTUAL_MEANS",
     "ActionModel",
     "BestResponseSolver",
     "DisplacementActions",
@@ -112,6 +119,7 @@ __all__ = [
     "measure_expost",
     "measure_stage",
     "neighbourhood_means",
+    "outside_means",
     "owner_regret",
     "plan_stage",
     "profile_payoff",
@@ -123,4 +131,5 @@ __all__ = [
     "separate_colocated",
     "solve_stage",
     "stage_regret",
+    "virtual_mode",
 ]

@@ -49,6 +49,10 @@ class LocalGameBatch:
         Pairs ``(k, l)`` whose pairwise potential counts. ``None`` (default): every pair of
         distinct valid variables, as in eq. 1 where the sum runs over all of N_i. The
         centralised game uses it to keep only pairs within h hops.
+    is_context : ndarray of bool, shape (B, K), optional
+        Variables that are context, not players (``virtual_mean = "exact"``: the robots of
+        the members' neighbourhoods outside N_i, at their reported states, with a single
+        action); ``None`` (default): none.
 
     Notes
     -----
@@ -64,6 +68,7 @@ class LocalGameBatch:
     next_states: np.ndarray
     action_mask: np.ndarray
     pair_mask: np.ndarray | None = field(default=None)
+    is_context: np.ndarray | None = field(default=None)
 
     def __post_init__(self) -> None:
         members = np.asarray(self.members)
@@ -102,6 +107,19 @@ class LocalGameBatch:
                     f"pair_mask must have shape {(b, k, k)} (got {np.shape(self.pair_mask)})"
                 )
             object.__setattr__(self, "pair_mask", frozen(self.pair_mask, bool))
+        if self.is_context is not None:
+            if np.shape(self.is_context) != (b, k):
+                raise ValueError(
+                    f"is_context must have shape {(b, k)} (got {np.shape(self.is_context)})"
+                )
+            object.__setattr__(self, "is_context", frozen(self.is_context, bool))
+
+    @property
+    def players(self) -> np.ndarray:
+        """Boolean ``(B, K)``: valid variables that decide (not context)."""
+        if self.is_context is None:
+            return self.mask
+        return self.mask & ~self.is_context
 
     @property
     def n_games(self) -> int:
@@ -143,6 +161,7 @@ class LocalGameBatch:
             next_states=self.next_states[idx],
             action_mask=self.action_mask[idx],
             pair_mask=None if self.pair_mask is None else self.pair_mask[idx],
+            is_context=None if self.is_context is None else self.is_context[idx],
         )
 
     def trim(self) -> LocalGameBatch:
@@ -160,6 +179,7 @@ class LocalGameBatch:
             next_states=self.next_states[:, :k, :a],
             action_mask=self.action_mask[:, :k, :a],
             pair_mask=None if self.pair_mask is None else self.pair_mask[:, :k, :k],
+            is_context=None if self.is_context is None else self.is_context[:, :k],
         )
 
     @classmethod
@@ -185,6 +205,11 @@ class LocalGameBatch:
             return np.pad(arr, widths, constant_values=fill)
 
         keep_pairs = all(b.pair_mask is not None for b in batches)
+        any_context = any(b.is_context is not None for b in batches)
+
+        def context(b):
+            return np.zeros(b.mask.shape, dtype=bool) if b.is_context is None else b.is_context
+
         return cls(
             owner=np.concatenate([b.owner for b in batches]),
             members=np.concatenate([pad(b.members, {1: k}, -1) for b in batches]),
@@ -195,5 +220,8 @@ class LocalGameBatch:
             action_mask=np.concatenate([pad(b.action_mask, {1: k, 2: a}, False) for b in batches]),
             pair_mask=np.concatenate([pad(b.pair_mask, {1: k, 2: k}, False) for b in batches])
             if keep_pairs
+            else None,
+            is_context=np.concatenate([pad(context(b), {1: k}, False) for b in batches])
+            if any_context
             else None,
         )

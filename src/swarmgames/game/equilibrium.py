@@ -153,18 +153,16 @@ class OwnerPayoffs:
         return self.action_mask.shape  # type: ignore[return-value]
 
     def select(self, games) -> OwnerPayoffs:
-        """The rows of the games ``games`` (indices or a boolean mask over B), in that order."""
-        games = np.asarray(games)
-        if games.dtype == bool:
-            games = np.flatnonzero(games)
+        """The owners' rows of the games ``games`` (indices or a boolean mask over B)."""
+        idx = np.arange(self.owner.shape[0])[games]
         return OwnerPayoffs(
-            self.unary[games],
-            None if self.pair is None else self.pair[games],
-            self.action_mask[games],
-            self.mask[games],
-            self.owner[games],
-            self.members[games],
-            None if self.pair_source is None else self.pair_source.select(games),
+            self.unary[idx],
+            None if self.pair is None else self.pair[idx],
+            self.action_mask[idx],
+            self.mask[idx],
+            self.owner[idx],
+            self.members[idx],
+            None if self.pair_source is None else self.pair_source.select(idx),
         )
 
 
@@ -230,13 +228,24 @@ def owner_regret(payoffs: GamePayoffs | OwnerPayoffs, profile) -> np.ndarray:
     return np.where(rows.mask[:, 0], np.maximum(best - cur, 0.0), 0.0)
 
 
-def profile_payoff(payoffs: GamePayoffs, profile) -> np.ndarray:
-    """M(x) of eq. 1 at the pure ``profile`` in each game, (B,)."""
+def profile_payoff(payoffs: GamePayoffs, profile, players=None) -> np.ndarray:
+    """M(x) of eq. 1 at the pure ``profile`` in each game, (B,).
+
+    ``players`` (B, K) bool, optional: count only the unary terms of these variables and the
+    pairs with at least one of them (a game with context variables, ``virtual_mean =
+    "exact"``: the payoff of the deciding members, with their terms against the context but
+    without the context's own constants)."""
     x = _check_profile(payoffs, profile)
-    total = np.take_along_axis(payoffs.unary, x[:, :, None], axis=2)[:, :, 0].sum(axis=1)
+    unary = np.take_along_axis(payoffs.unary, x[:, :, None], axis=2)[:, :, 0]
+    if players is not None:
+        players = np.asarray(players, dtype=bool)
+        unary = np.where(players, unary, 0.0)
+    total = unary.sum(axis=1)
     if payoffs.has_pair:
         at_l = payoffs.pair_at(x)  # (B, K, A, K)
         at_kl = np.take_along_axis(at_l, x[:, :, None, None], axis=2)[:, :, 0]  # (B, K, K)
+        if players is not None:
+            at_kl = np.where(players[:, :, None] | players[:, None, :], at_kl, 0.0)
         total = total + 0.5 * at_kl.sum(axis=(1, 2))
     return total
 

@@ -13,6 +13,14 @@ The decomposition has three stages, and each one can only see what the previous 
    :class:`~swarmgames.game.batch.LocalGameBatch`. The builders take a view, not the swarm:
    they cannot read global state because they are never given it.
 
+How the members whose neighbourhoods reach outside N_i stand in for the outside is
+``virtual_mean`` (:data:`~swarmgames.names.VIRTUAL_MEANS`, :mod:`swarmgames.game.virtual`):
+eq. 3's virtual mean (``"eq3"``), the mean over N_j − N_i (``"outside"``), nothing
+(``"off"``), or the outside robots themselves (``"exact"``): then the inbox also holds the
+*context* of robot i, C_i = ∪_{j ∈ N_i} N_j − N_i, with their reported states, and the game
+holds them as variables with a single action that keeps them where they are. They decide
+nothing, but the members' unary and pairwise potentials see them as they are.
+
 :func:`local_games` chains the three for a whole stage; :func:`centralised_game` builds the
 single swarm-wide game of the centralised baseline.
 
@@ -29,11 +37,18 @@ from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+import scipy.sparse as sp
 
 from swarmgames.arrays import csr_gather, frozen
 from swarmgames.game.actions import ActionModel, action_mask_of
 from swarmgames.game.batch import LocalGameBatch
-from swarmgames.game.virtual import neighbourhood_means, reaches_outside
+from swarmgames.game.virtual import (
+    member_columns,
+    neighbourhood_means,
+    outside_means,
+    reaches_outside,
+    virtual_mode,
+)
 from swarmgames.topology import TopologySnapshot
 
 __all__ = [
@@ -45,6 +60,7 @@ __all__ = [
     "build_local_game",
     "build_local_games",
     "centralised_game",
+    "context_rows",
     "gather_views",
     "local_games",
     "pad_rows",
@@ -58,7 +74,9 @@ class Inbox(Protocol):
     this and nothing else.
 
     :class:`Messages` is the exact, instant inbox; :mod:`swarmgames.comms` builds inboxes from
-    what a communication model delivered (late, lost, stale).
+    what a communication model delivered (late, lost, stale). For ``virtual_mean = "exact"``
+    an inbox also needs ``context_sizes`` (|C_i| of every robot, shape (N,)) and
+    ``views(owners, context=True)``; the other variants use only the two members below.
     """
 
     @property
@@ -66,8 +84,9 @@ class Inbox(Protocol):
         """|N_i| of the local game each robot would build (owner included), shape (N,)."""
         ...
 
-    def views(self, owners=None) -> LocalViews:
-        """The inboxes of ``owners`` (default: every robot), padded."""
+    def views(self, owners=None, *, context: bool = False) -> LocalViews:
+        """The inboxes of ``owners`` (default: every robot), padded; with ``context``, the
+        states of their contexts C_i too (``virtual_mean = "exact"``)."""
         ...
 
 
@@ -104,10 +123,20 @@ class Messages:
         """|N_i| of every robot's local game (owner included), shape (N,)."""
         return np.diff(self.indptr)
 
-    def views(self, owners=None) -> LocalViews:
+    @property
+    def context_sizes(self) -> np.ndarray:
+        """|C_i|, the robots of the members' neighbourhoods outside N_i, shape (N,)."""
+        n = self.n_robots
+        nbh = sp.csr_array(
+            (np.ones(self.indices.size, dtype=np.int32), self.indices, self.indptr), shape=(n, n)
+        )
+        return np.diff((nbh @ nbh).indptr) - self.sizes
+
+    def views(self, owners=None, *, context: bool = False) -> LocalViews:
         """The inboxes of ``owners`` (:func:`gather_views`): every member's exact message,
-        delivered instantly (the ``ideal`` delivery of :mod:`swarmgames.comms`)."""
-        return gather_views(self, owners)
+        delivered instantly (the ``ideal`` delivery of :mod:`swarmgames.comms`); with
+        ``context``, the exact states of C_i as well."""
+        return gather_views(self, owners, context=context)
 
 
 def _validate_states(states, n: int) -> np.ndarray:
@@ -165,6 +194,10 @@ class LocalView:
         Their reported S̄_j (eq. 3).
     neighbourhoods : tuple of ndarray
         Their reported N_j.
+    context : ndarray of int32, shape (C,), optional
+        C_i = ∪_j N_j − N_i in increasing id (only for ``virtual_mean = "exact"``).
+    context_states : ndarray, shape (C, D), optional
+        Their reported states.
     """
 
     owner: int
@@ -172,23 +205,37 @@ class LocalView:
     states: np.ndarray
     mean_states: np.ndarray
     neighbourhoods: tuple[np.ndarray, ...]
+    context: np.ndarray | None = None
+    context_states: np.ndarray | None = None
 
 
 def _owner_first(row: np.ndarray, owner: int) -> np.ndarray:
     return np.concatenate([[owner], row[row != owner]]).astype(np.int32)
 
 
-def receive(messages: Messages, owner: int) -> LocalView:
-    """Robot ``owner``'s inbox: the messages of N_owner, as its own routing table gives it."""
+def receive(messages: Messages, owner: int, *, context: bool = False) -> LocalView:
+    """Robot ``owner``'s inbox: the messages of N_owner, as its own routing table gives it;
+    with ``context``, also the states of C_owner = ∪_{j ∈ N_owner} N_j − N_owner (written
+    with set operations: the reference of :func:`gather_views`)."""
     if not 0 <= owner < messages.n_robots:
         raise ValueError(f"owner must be in [0, {messages.n_robots}) (got {owner})")
     members = _owner_first(messages.neighbourhood(owner), owner)
+    nbhs = tuple(frozen(messages.neighbourhood(int(j))) for j in members)
+    extra = {}
+    if context:
+        ctx = set().union(*(set(nb.tolist()) for nb in nbhs)) - set(members.tolist())
+        ids = np.array(sorted(ctx), dtype=np.int32)
+        extra = {
+            "context": frozen(ids),
+            "context_states": frozen(messages.state[ids]),
+        }
     return LocalView(
         owner=int(owner),
         members=frozen(members),
         states=frozen(messages.state[members]),
         mean_states=frozen(messages.mean_state[members]),
-        neighbourhoods=tuple(frozen(messages.neighbourhood(int(j))) for j in members),
+        neighbourhoods=nbhs,
+        **extra,
     )
 
 
@@ -206,6 +253,11 @@ class LocalViews:
         Reported S_j and S̄_j; 0 at padding.
     neighbourhoods : ndarray of int32, shape (B, K, L)
         Reported N_j, ``-1`` padded (L = largest |N_j|).
+    context : ndarray of int32, shape (B, C), optional
+        C_i = ∪_{j ∈ N_i} N_j − N_i as far as the owner holds their states, increasing id,
+        ``-1`` padded (only in views asked for with ``context=True``).
+    context_states : ndarray, shape (B, C, D), optional
+        Their reported states; 0 at padding.
     """
 
     owner: np.ndarray
@@ -214,6 +266,8 @@ class LocalViews:
     states: np.ndarray
     mean_states: np.ndarray
     neighbourhoods: np.ndarray
+    context: np.ndarray | None = None
+    context_states: np.ndarray | None = None
 
 
 def pad_rows(indptr: np.ndarray, indices: np.ndarray, rows: np.ndarray) -> np.ndarray:
@@ -236,11 +290,35 @@ def pad_rows(indptr: np.ndarray, indices: np.ndarray, rows: np.ndarray) -> np.nd
     return out.reshape((*rows.shape, out.shape[1]))
 
 
-def gather_views(messages: Messages, owners=None) -> LocalViews:
+def context_rows(members: np.ndarray, mask: np.ndarray, neighbourhoods: np.ndarray):
+    """C_i = ∪_{j ∈ N_i} N_j − N_i of every game: the robots of the members' reported
+    neighbourhoods that are not members, shape (B, C), increasing id, ``-1`` padded
+    (vectorised over the games).
+
+    Examples
+    --------
+    >>> members = np.array([[1, 0, 2]])
+    >>> nbh = np.array([[[0, 1, 2], [0, 1, -1], [1, 2, 3]]])
+    >>> context_rows(members, members >= 0, nbh).tolist()
+    [[3]]
+    """
+    nbh = np.asarray(neighbourhoods, dtype=np.int64)
+    b = nbh.shape[0]
+    outside = (nbh >= 0) & (member_columns(members, mask, nbh) < 0)
+    game = np.broadcast_to(np.arange(b)[:, None, None], nbh.shape)[outside]
+    span = int(nbh.max(initial=0)) + 1
+    keys = np.unique(game * span + nbh[outside])
+    game, ids = np.divmod(keys, span)
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(game, minlength=b))])
+    return pad_rows(indptr, ids.astype(np.int32), np.arange(b))
+
+
+def gather_views(messages: Messages, owners=None, *, context: bool = False) -> LocalViews:
     """The inboxes of ``owners`` (default: every robot), padded.
 
     Each inbox holds only the messages of the owner's own N_i; the local-game builder receives
-    nothing else.
+    nothing else. With ``context`` it also holds the states of the owner's context
+    C_i = ∪_{j ∈ N_i} N_j − N_i (robots within 2h hops, for ``virtual_mean = "exact"``).
     """
     n = messages.n_robots
     owners = np.arange(n) if owners is None else np.asarray(owners, dtype=np.int64).reshape(-1)
@@ -255,18 +333,36 @@ def gather_views(messages: Messages, owners=None) -> LocalViews:
     mask = members >= 0
     safe = np.where(mask, members, 0)
     zero = ~mask[:, :, None]
+    nbh = pad_rows(messages.indptr, messages.indices, members)
+    extra = {}
+    if context:
+        ctx = context_rows(members, mask, nbh)
+        extra = {
+            "context": frozen(ctx, np.int32),
+            "context_states": frozen(
+                np.where(ctx[:, :, None] < 0, 0.0, messages.state[np.maximum(ctx, 0)])
+            ),
+        }
     return LocalViews(
         owner=frozen(owners, np.int32),
         members=frozen(members, np.int32),
         mask=frozen(mask),
         states=frozen(np.where(zero, 0.0, messages.state[safe])),
         mean_states=frozen(np.where(zero, 0.0, messages.mean_state[safe])),
-        neighbourhoods=frozen(pad_rows(messages.indptr, messages.indices, members)),
+        neighbourhoods=frozen(nbh),
+        **extra,
     )
 
 
 def _game_from_states(
-    owner, members, mask, states, is_virtual, action_model: ActionModel, pair_mask=None
+    owner,
+    members,
+    mask,
+    states,
+    is_virtual,
+    action_model: ActionModel,
+    pair_mask=None,
+    is_context=None,
 ) -> LocalGameBatch:
     n_actions = int(action_model.n_actions)
     if n_actions < 1:
@@ -277,6 +373,15 @@ def _game_from_states(
         raise ValueError(
             f"action model apply() must return shape {expected} (got {next_states.shape})"
         )
+    action_mask = action_mask_of(action_model, states) & mask[:, :, None]
+    if is_context is not None and is_context.any():
+        # A context robot decides nothing: one action, the "stay" of the model where it has
+        # one (else the first), and every action leaves it where it is.
+        stays = np.all(next_states == states[:, :, None, :], axis=3) & action_mask
+        only = np.where(stays.any(axis=2), np.argmax(stays, axis=2), 0)
+        one = np.arange(n_actions) == only[:, :, None]
+        action_mask = np.where(is_context[:, :, None], one, action_mask)
+        next_states = np.where(is_context[:, :, None, None], states[:, :, None, :], next_states)
     return LocalGameBatch(
         owner=owner,
         members=members,
@@ -284,50 +389,125 @@ def _game_from_states(
         states=states,
         is_virtual=is_virtual,
         next_states=next_states,
-        action_mask=action_mask_of(action_model, states) & mask[:, :, None],
+        action_mask=action_mask,
         pair_mask=pair_mask,
+        is_context=is_context,
+    )
+
+
+def _with_context(views: LocalViews):
+    """Members then context, left-packed per game: members, mask, states, is_context."""
+    if views.context is None or views.context_states is None:
+        raise ValueError(
+            "virtual_mean = 'exact' needs the states of every game's context: build the views "
+            "with context=True (gather_views(..., context=True), inbox.views(..., context=True))"
+        )
+    k = views.members.shape[1]
+    members = np.concatenate([views.members, views.context], axis=1)
+    states = np.concatenate([views.states, views.context_states], axis=1)
+    mask = members >= 0
+    order = np.argsort(~mask, axis=1, kind="stable")
+    is_context = np.broadcast_to(np.arange(members.shape[1]) >= k, members.shape)
+    take = lambda a: np.take_along_axis(a, order, axis=1)  # noqa: E731
+    states = np.take_along_axis(states, order[:, :, None], axis=1)
+    mask = take(mask)
+    width = max(int(mask.sum(axis=1).max(initial=1)), 1)
+    return (
+        take(members)[:, :width],
+        mask[:, :width],
+        states[:, :width],
+        take(is_context)[:, :width] & mask[:, :width],
     )
 
 
 def build_local_games(
-    views: LocalViews, action_model: ActionModel, *, virtual_mean: bool = True
+    views: LocalViews, action_model: ActionModel, *, virtual_mean: bool | str = "eq3"
 ) -> LocalGameBatch:
     """The local games of a batch of inboxes (vectorised).
 
     Parameters
     ----------
     views : LocalViews
-        The owners' inboxes (from :func:`gather_views`).
+        The owners' inboxes (from :func:`gather_views`; with ``context=True`` for
+        ``"exact"``).
     action_model : ActionModel
-    virtual_mean : bool
-        Replace every member j with N_j − N_i ≠ ∅ by its virtual mean S̄_j (eq. 3). False keeps
-        the reported states unchanged (the paper's comparison).
+    virtual_mean : {"eq3", "outside", "exact", "off"} or bool, default "eq3"
+        How a member j with N_j − N_i ≠ ∅ stands in for the robots outside N_i:
+        ``"eq3"`` (or True) its virtual mean S̄_j over N_j (eq. 3); ``"outside"`` the mean
+        over N_j − N_i (:func:`~swarmgames.game.virtual.outside_means`); ``"off"`` (or
+        False) nothing, the reported states (the paper's comparison); ``"exact"`` every
+        member keeps its reported state and the context C_i = ∪_j N_j − N_i joins the game
+        as variables with a single action that keeps them in place (``is_context``).
 
     Returns
     -------
     LocalGameBatch
     """
+    mode = virtual_mode(virtual_mean)
+    if mode == "exact":
+        members, mask, states, is_context = _with_context(views)
+        return _game_from_states(
+            views.owner,
+            members,
+            mask,
+            states,
+            np.zeros(mask.shape, dtype=bool),
+            action_model,
+            is_context=is_context,
+        )
     outside = reaches_outside(views.members, views.mask, views.neighbourhoods)
-    is_virtual = outside & bool(virtual_mean)
-    states = np.where(is_virtual[:, :, None], views.mean_states, views.states)
+    is_virtual = outside & (mode != "off")
+    means = views.mean_states
+    if mode == "outside":
+        means = outside_means(
+            views.members, views.mask, views.states, views.mean_states, views.neighbourhoods
+        )
+    states = np.where(is_virtual[:, :, None], means, views.states)
     return _game_from_states(
         views.owner, views.members, views.mask, states, is_virtual, action_model
     )
 
 
 def build_local_game(
-    view: LocalView, action_model: ActionModel, *, virtual_mean: bool = True
+    view: LocalView, action_model: ActionModel, *, virtual_mean: bool | str = "eq3"
 ) -> LocalGameBatch:
     """Robot ``view.owner``'s local game alone, as a batch of one game with no padding.
 
     Same result as :func:`build_local_games` on the same inbox; written per robot with set
     operations, it is the reference the batched builder is tested against.
     """
+    mode = virtual_mode(virtual_mean)
     members = np.asarray(view.members, dtype=np.int32)
+    states = np.asarray(view.states, dtype=float)
     inside = set(members.tolist())
-    outside = np.array([bool(set(nb.tolist()) - inside) for nb in view.neighbourhoods])
-    is_virtual = outside & bool(virtual_mean)
-    states = np.where(is_virtual[:, None], view.mean_states, view.states)
+    if mode == "exact":
+        if view.context is None:
+            raise ValueError("virtual_mean = 'exact' needs the view's context (context=True)")
+        ctx = np.asarray(view.context, dtype=np.int32)
+        all_members = np.concatenate([members, ctx])
+        all_states = np.concatenate([states, np.asarray(view.context_states, dtype=float)])
+        k = all_members.size
+        return _game_from_states(
+            np.array([view.owner]),
+            all_members[None],
+            np.ones((1, k), dtype=bool),
+            all_states[None],
+            np.zeros((1, k), dtype=bool),
+            action_model,
+            is_context=(np.arange(k) >= members.size)[None],
+        )
+    outside = [set(nb.tolist()) - inside for nb in view.neighbourhoods]
+    is_virtual = np.array([bool(o) for o in outside]) & (mode != "off")
+    means = np.array(view.mean_states, dtype=float)
+    if mode == "outside":
+        # |N_j| S̄_j less the copies i holds of N_j ∩ N_i, over |N_j − N_i|.
+        pos = {int(m): c for c, m in enumerate(members.tolist())}
+        for c, nb in enumerate(view.neighbourhoods):
+            if outside[c]:
+                both = [pos[m] for m in nb.tolist() if m in inside]
+                total = len(nb) * means[c] - states[both].sum(axis=0)
+                means[c] = total / len(outside[c])
+    states = np.where(is_virtual[:, None], means, states)
     k = members.size
     return _game_from_states(
         np.array([view.owner]),
@@ -345,7 +525,7 @@ def local_games(
     states: np.ndarray,
     action_model: ActionModel,
     *,
-    virtual_mean: bool = True,
+    virtual_mean: bool | str = "eq3",
     owners=None,
 ) -> LocalGameBatch:
     """Every robot's local game of one stage: ``broadcast`` → ``gather_views`` →
@@ -358,8 +538,8 @@ def local_games(
         Neighbourhood radius in hops (paper: 2).
     states : ndarray, shape (N, D)
     action_model : ActionModel
-    virtual_mean : bool
-        Use the virtual mean neighbours of eq. 3.
+    virtual_mean : {"eq3", "outside", "exact", "off"} or bool, default "eq3"
+        How members reaching outside N_i stand in for it (:func:`build_local_games`).
     owners : array_like of int, optional
         Robots whose games to build (default: all, in id order).
 
@@ -382,8 +562,9 @@ def local_games(
     >>> batch.is_virtual.tolist()[0]
     [False, True, False]
     """
-    views = gather_views(broadcast(snapshot, h, states), owners)
-    return build_local_games(views, action_model, virtual_mean=virtual_mean)
+    mode = virtual_mode(virtual_mean)
+    views = gather_views(broadcast(snapshot, h, states), owners, context=mode == "exact")
+    return build_local_games(views, action_model, virtual_mean=mode)
 
 
 def centralised_game(

@@ -5,11 +5,12 @@ and the public API all call once per control period:
 
 1. routing tables → every robot's inbox (:func:`~swarmgames.game.local.broadcast`), robots
    split into batches of similar neighbourhood size (:func:`size_groups`);
-2. per batch: the local games (with or without virtual means, eq. 3), their payoff tables
-   (the potentials, eq. 1) and their solution (the configured solver, Algorithm 1); with
-   ``refine="best_response"`` each game's profile is then refined by best-response sweeps
-   from the solver's profile to a pure Nash equilibrium (:mod:`swarmgames.game.refine`),
-   and the owner plays its action of the refined profile;
+2. per batch: the local games (with virtual means, eq. 3, or one of the other variants of
+   :data:`~swarmgames.names.VIRTUAL_MEANS`), their payoff tables (the potentials, eq. 1) and
+   their solution (the configured solver, Algorithm 1); with ``refine="best_response"``
+   each game's profile is then refined by best-response sweeps from the solver's profile to
+   a pure Nash equilibrium (:mod:`swarmgames.game.refine`), and the owner plays its action
+   of the refined profile;
 3. robots whose states coincide build the same game and would take the same action for
    ever: they get distinct actions, the order among them drawn from the stage's Generator
    (:func:`~swarmgames.game.colocated.separate_colocated`; nothing changes, and nothing is
@@ -17,10 +18,11 @@ and the public API all call once per control period:
 4. the measurements from the tables already computed: every robot's payoff :math:`M_i` and
    local regret at the profile it settled on, and its global (stage-game) regret at the
    realised joint action. The global regret needs robot i's *true* local game (actual states,
-   no virtual means): it is the solved game itself whenever no member of N_i was replaced by
-   a virtual mean, and only the other games are built and evaluated a second time. The
-   ex-post regret (:mod:`swarmgames.game.expost`) scores robot i's actions against the
-   states its neighbours reached: its games are built and evaluated once more.
+   no virtual means, no context): it is the solved game itself whenever no member of N_i was
+   replaced by a virtual mean and no context joined it, and only the other games are built
+   and evaluated a second time. The ex-post regret (:mod:`swarmgames.game.expost`) scores
+   robot i's actions against the states its neighbours reached: its games are built and
+   evaluated once more.
 
 ``centralised=True`` solves the swarm as one game instead (the centralised baseline) and
 measures every robot on its true local game. :func:`measure_stage` measures given actions the
@@ -62,6 +64,7 @@ from swarmgames.game.local import (
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
 from swarmgames.game.refine import REFINE_METHODS, refine_profiles
 from swarmgames.game.solvers import GameSolution, Solver, sample_actions
+from swarmgames.game.virtual import virtual_mode
 from swarmgames.rng import as_generator
 from swarmgames.topology import TopologySnapshot
 
@@ -219,10 +222,12 @@ class _Record:
         self.converged = np.zeros(n, dtype=bool)
 
     def measure(self, owners, batch, pay, profile) -> None:
-        """Payoff, local regret and neighbour count of the games of ``owners``."""
-        self.payoff[owners] = profile_payoff(pay, profile)
+        """Payoff, local regret and neighbour count of the games of ``owners`` (context
+        variables, which decide nothing, are not counted as neighbours)."""
+        players = None if batch.is_context is None else batch.players
+        self.payoff[owners] = profile_payoff(pay, profile, players)
         self.local_regret[owners] = local_regret(pay, profile)
-        self.neighbours[owners] = np.asarray(batch.mask).sum(axis=1) - 1
+        self.neighbours[owners] = np.asarray(batch.players).sum(axis=1) - 1
 
     def next_states(self, states, action_model) -> np.ndarray:
         """Every robot's state after its action, (N, D)."""
@@ -264,15 +269,17 @@ def evaluate_games(
     action_model: ActionModel,
     potentials: Potentials,
     *,
-    virtual_mean: bool,
+    virtual_mean: bool | str,
 ) -> tuple[LocalGameBatch, GamePayoffs, float, float]:
     """The second step, for one batch: the local games of ``owners`` built from their inboxes
-    (``inbox.views(owners)``: :class:`~swarmgames.game.local.Messages` for exact, instant
-    delivery, or what a communication model delivered) and their payoff tables under
-    ``solver``'s weights; with the build and the evaluation (payoff integration) times,
-    seconds."""
+    (``inbox.views(owners)``, with ``context=True`` for ``virtual_mean = "exact"``:
+    :class:`~swarmgames.game.local.Messages` for exact, instant delivery, or what a
+    communication model delivered) and their payoff tables under ``solver``'s weights; with
+    the build and the evaluation (payoff integration) times, seconds."""
     t0 = time.perf_counter()
-    batch = build_local_games(inbox.views(owners), action_model, virtual_mean=virtual_mean)
+    mode = virtual_mode(virtual_mean)
+    views = inbox.views(owners, context=True) if mode == "exact" else inbox.views(owners)
+    batch = build_local_games(views, action_model, virtual_mean=mode)
     t1 = time.perf_counter()
     pay = solver.evaluate(batch, potentials)
     return batch, pay, t1 - t0, time.perf_counter() - t1
@@ -284,7 +291,7 @@ def _true_measures(rec: _Record, solver, messages, groups, action_model, potenti
     integrate_s = 0.0
     for owners in groups:
         batch, pay, _, t_int = evaluate_games(
-            solver, messages, owners, action_model, potentials, virtual_mean=False
+            solver, messages, owners, action_model, potentials, virtual_mean="off"
         )
         members = np.asarray(pay.members)
         profile = np.where(pay.mask, rec.actions[np.maximum(members, 0)], 0)
@@ -343,7 +350,7 @@ def solve_stage(
     potentials: Potentials,
     rng: int | np.random.Generator | None = None,
     *,
-    virtual_mean: bool = True,
+    virtual_mean: bool | str = "eq3",
     centralised: bool = False,
     buckets: int = 0,
     global_regret: bool = True,
@@ -365,9 +372,11 @@ def solve_stage(
     potentials : Potentials
     rng : int, Generator or None
         Randomness of ``action_choice="sample"`` and of the random solver.
-    virtual_mean : bool, default True
-        Replace every member j with N_j − N_i ≠ ∅ by its virtual mean (eq. 3); False keeps
-        the reported states (the paper's comparison).
+    virtual_mean : {"eq3", "outside", "exact", "off"} or bool, default "eq3"
+        How a member j with N_j − N_i ≠ ∅ stands in for the robots outside N_i
+        (:func:`~swarmgames.game.local.build_local_games`): its virtual mean (eq. 3, True),
+        the mean over N_j − N_i, the outside robots as fixed context (``"exact"``: the
+        inbox must hold their states) or nothing (``"off"``, False: the paper's comparison).
     centralised : bool, default False
         Solve the swarm as one game over every robot (pairwise terms between robots within h
         hops of each other) instead of N local games; for small swarms (N² A² table).
@@ -418,17 +427,21 @@ def solve_stage(
             solver, snapshot, h, states, action_model, potentials, gen, buckets, keep_games,
             refine, global_regret,
         )  # fmt: skip
+    mode = virtual_mode(virtual_mean)
     t0 = time.perf_counter()
     messages = broadcast(snapshot, h, states)
     source = messages if inbox is None else inbox
-    groups = size_groups(source.sizes, _check_buckets(buckets), int(action_model.n_actions))
+    sizes = source.sizes
+    if mode == "exact":  # the games hold the context too
+        sizes = sizes + source.context_sizes
+    groups = size_groups(sizes, _check_buckets(buckets), int(action_model.n_actions))
     build_s = time.perf_counter() - t0
     rec = _Record(n, int(action_model.n_actions))
     integrate_s = solve_s = refine_s = 0.0
     batches, sols = [], []
     for owners in groups:
         batch, pay, t_build, t_int = evaluate_games(
-            solver, source, owners, action_model, potentials, virtual_mean=virtual_mean
+            solver, source, owners, action_model, potentials, virtual_mean=mode
         )
         sol, ref = _refined(solver.solve_payoffs(pay, gen), pay, refine)
         rec.actions[owners] = sol.actions
@@ -449,11 +462,13 @@ def solve_stage(
         if global_regret:
             # Only the owners' rows wait for the joint action, not the whole tables.
             redo = np.asarray(batch.is_virtual).any(axis=1)
+            if batch.is_context is not None:
+                redo |= np.asarray(batch.is_context).any(axis=1)
             if inbox is not None:
                 redo |= ~_knows_the_truth(batch, messages.views(owners))
-            # The games with a virtual member or a wrong view keep no rows: a robot's
-            # realised action need not be valid at its virtual position.
-            rows = None if redo.all() else OwnerPayoffs.of(pay).select(~redo)
+            rows = None if redo.all() else OwnerPayoffs.of(pay)
+            if rows is not None and redo.any():  # the others' rows may hold context robots
+                rows = rows.select(~redo)
             batches.append((owners, redo, rows))
         if keep_games:
             sols.append((batch, sol))
@@ -486,14 +501,15 @@ def solve_stage(
 
 def _global_regret(rec: _Record, solver, messages, batches, action_model, potentials) -> None:
     """Global regret from the solved games' owner rows where they are the true games (no
-    virtual mean, and the members and states the robot knew are the actual ones: always with
-    exact delivery, and with routed delivery wherever every message arrived unchanged); the
+    virtual mean, no context, and the members and states the robot knew are the actual ones:
+    always with exact delivery, and with routed delivery wherever every message arrived
+    unchanged); the
     other games are rebuilt with actual states and true neighbourhoods and evaluated again,
     one batch's table at a time."""
 
     def again(owners) -> np.ndarray:
         _, true_pay, _, _ = evaluate_games(
-            solver, messages, owners, action_model, potentials, virtual_mean=False
+            solver, messages, owners, action_model, potentials, virtual_mean="off"
         )
         return global_regret(true_pay, rec.actions)
 
@@ -680,6 +696,6 @@ def stage_regret(
     ndarray, shape (N,)
         >= 0; 0 for every robot iff the joint action is a pure NE of the stage game.
     """
-    batch = local_games(snapshot, h, states, action_model, virtual_mean=False)
+    batch = local_games(snapshot, h, states, action_model, virtual_mean="off")
     payoffs = evaluate_payoffs(batch, potentials, alpha_a, alpha_b)
     return global_regret(payoffs, joint_actions)

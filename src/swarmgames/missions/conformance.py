@@ -34,6 +34,7 @@ from swarmgames.game.actions import action_mask_of
 from swarmgames.game.checks import check_action_model, check_potentials
 from swarmgames.game.local import local_games
 from swarmgames.missions.protocol import RESERVED_COLUMNS
+from swarmgames.names import VIRTUAL_MEANS
 from swarmgames.topology import TopologySnapshot
 
 __all__ = ["MissionCheckError", "check_mission"]
@@ -154,14 +155,13 @@ def check_mission(mission: Any, n_robots: int = 4, seed: int = 0) -> None:
     pick = np.array([rng.choice(np.flatnonzero(v)) for v in valid])
     s1 = nxt[np.arange(n_robots), pick]
     for states, when in ((s0, "at the initial states"), (s1, "after one stage")):
-        for vm in (True, False):
+        for vm in VIRTUAL_MEANS:
             batch = local_games(snap, 1, states, model, virtual_mean=vm)
             try:
                 check_potentials(mission.potentials, batch)
             except Exception as exc:
                 problems.append(
-                    f"potentials {when} (virtual means {'on' if vm else 'off'}): "
-                    f"{type(exc).__name__}: {exc}"
+                    f"potentials {when} (virtual_mean = {vm!r}): {type(exc).__name__}: {exc}"
                 )
                 break
 

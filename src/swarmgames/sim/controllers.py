@@ -103,7 +103,8 @@ class _Controller:
 
 class GameController(_Controller):
     """Every robot builds and solves its local game (all games batched) and acts on its own
-    marginal; ``game.solver = "centralised"`` solves the swarm as one game instead.
+    marginal (``game.virtual_mean``: how the members reaching outside N_i stand in for it);
+    ``game.solver = "centralised"`` solves the swarm as one game instead.
 
     Parameters
     ----------
@@ -113,7 +114,7 @@ class GameController(_Controller):
 
     def __init__(self, config, mission) -> None:
         super().__init__(config, mission)
-        self.virtual_mean = bool(config.game.virtual_mean)
+        self.virtual_mean = config.game.virtual_mean  # normalised by the schema: "eq3", ...
         self.centralised = config.game.solver == "centralised"
         self.refine = config.game.refine
 

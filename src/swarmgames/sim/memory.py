@@ -21,7 +21,9 @@ smaller than the take-off disc shrunk by the distance a robot flies in the missi
 UAVs takes off from a 1.4 km disc (K ≈ 81) and can reach the 612 m ROI in 90 s, where every
 UAV is within two hops of every other (K = 300); 1 000 UAVs take off from a 2.6 km disc that
 90 s shrink to 1.7 km at most (K ≈ 188). It is the size of the largest games (those near
-the centre), which is what the padded batches hold.
+the centre), which is what the padded batches hold. With ``game.virtual_mean = "exact"`` a
+game also holds its context, the robots of its members' neighbourhoods: K is then that of
+2h hops (the formula with 2h r).
 
 With the built-in OLSR model the network's own state is added: every robot's 2-hop set holds
 K1² entries (K1 the same formula for one hop), 16 bytes each between HELLO rounds and about
@@ -122,7 +124,8 @@ def _radio_range(network) -> float:
 
 def neighbourhood_size(config, mission=None) -> int:
     """K, the neighbourhood size (owner included) of the largest local games of the run:
-    the module's formula for the take-off disc and for the mission's region.
+    the module's formula for the take-off disc and for the mission's region, over h hops
+    (2h with ``game.virtual_mean = "exact"``, whose games hold the members' neighbours).
 
     Examples
     --------
@@ -135,6 +138,8 @@ def neighbourhood_size(config, mission=None) -> int:
 
         mission = build_mission(config)
     n, h, net = config.swarm.n_robots, int(config.network.hops), config.network
+    if config.game.virtual_mean == "exact":
+        h *= 2
     if net.backend == "knn":
         return int(min(n, sum(net.knn_k**i for i in range(h + 1))))
     reach = h * _radio_range(net)
@@ -158,10 +163,11 @@ def neighbourhood_size(config, mission=None) -> int:
 
 def _one_hop_size(config, mission) -> int:
     """K1, robots within one radio range of the densest robots (owner included)."""
-    return neighbourhood_size(
-        config.model_copy(update={"network": config.network.model_copy(update={"hops": 1})}),
-        mission,
-    )
+    update = {
+        "network": config.network.model_copy(update={"hops": 1}),
+        "game": config.game.model_copy(update={"virtual_mean": "off"}),
+    }
+    return neighbourhood_size(config.model_copy(update=update), mission)
 
 
 def _potentials_bytes(mission, k: int, a: int, games: int, n: int) -> tuple[float, float]:
@@ -280,6 +286,8 @@ def check_memory(config, mission=None) -> MemoryEstimate:
         knobs.append("game.solver = 'mean_field' (local games instead of one swarm-wide game)")
     if config.sim.global_regret:
         knobs.append("sim.global_regret = false")
+    if game.virtual_mean == "exact":
+        knobs.append("game.virtual_mean = 'eq3' or 'outside' (games of h hops, not 2h)")
     knobs.append("sim.memory_limit_gib")
     raise MemoryLimitError(
         f"estimated peak memory must be <= {how} = {limit / GIB:.3g} GiB (got "

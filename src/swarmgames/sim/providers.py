@@ -75,7 +75,8 @@ def comms_from_config(
     Parameters
     ----------
     config : ScenarioConfig
-        Uses ``comms``, ``network.hops``, ``network.radio`` and ``swarm.n_robots``.
+        Uses ``comms``, ``network.hops``, ``network.radio``, ``swarm.n_robots`` and
+        ``game.virtual_mean`` (``"exact"`` delivers every robot's context, to 2h hops).
     state_dim : int
         D, the number of state columns of the mission.
     provider : NeighbourhoodProvider, optional
@@ -95,9 +96,11 @@ def comms_from_config(
         "max_age_s": c.max_age_s,
         "dead_reckoning": c.dead_reckoning,
         "gps_error_m": config.faults.gps_error_m,
+        "context": config.game.virtual_mean == "exact",
     }
     if c.model == "ideal":
-        return IdealComms(net.hops)
+        return IdealComms(net.hops, context=beliefs["context"])
+    beliefs["averaged_rows"] = config.game.virtual_mean == "outside"
     if c.model == "ns3":
         if not isinstance(provider, Ns3Provider):
             raise ConfigError(
