@@ -77,17 +77,23 @@ def _open_run_folder(out: Path | None, default_name: str, force: bool):
     return RunFolder(out if out is not None else Path("runs") / default_name, force=force)
 
 
-def _parse_seeds(text: str) -> list[int]:
-    """The seeds of ``--seeds S,S,...``; a usage error (exit 2) unless they are integers >= 0."""
+def _parse_integers(text: str, option: str, minimum: int, what: str) -> list[int]:
+    """The integers of ``option N,N,...``; a usage error (exit 2) unless they are all
+    ``>= minimum``."""
     try:
         chosen = [int(x) for x in text.split(",") if x.strip()]
     except ValueError:
         chosen = []
-    if not chosen or min(chosen) < 0:
+    if not chosen or min(chosen) < minimum:
         raise click.BadParameter(
-            f"must be comma-separated seeds >= 0 (got {text!r})", param_hint="--seeds"
+            f"must be comma-separated {what} >= {minimum} (got {text!r})", param_hint=option
         )
     return chosen
+
+
+def _parse_seeds(text: str) -> list[int]:
+    """The seeds of ``--seeds S,S,...``; a usage error (exit 2) unless they are integers >= 0."""
+    return _parse_integers(text, "--seeds", 0, "seeds")
 
 
 out_option = click.option(
@@ -367,26 +373,6 @@ def reproduce(
         click.echo(f"Communication: {len(res3.runs)} runs -> {folders['comms'].path}/")
 
 
-def _parse_list(text: str, option: str, convert: Callable[[str], Any]) -> list[Any]:
-    """The comma-separated values of ``option``; a usage error (exit 2) when one is bad."""
-    try:
-        values = [convert(x.strip()) for x in text.split(",") if x.strip()]
-    except ValueError:
-        values = []
-    if not values:
-        raise click.BadParameter(
-            f"must be comma-separated values (got {text!r})", param_hint=option
-        )
-    return values
-
-
-def _size(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise ValueError(text)
-    return value
-
-
 def _reproduce_fig2_scale(
     out, overrides, seeds, sizes, variants, jobs, executor, address, no_progress
 ) -> None:
@@ -401,7 +387,7 @@ def _reproduce_fig2_scale(
     chosen = {
         "sizes": fig2_scale.DEFAULT_SIZES
         if sizes is None
-        else _parse_list(sizes, "--sizes", _size),
+        else _parse_integers(sizes, "--sizes", 1, "swarm sizes"),
         "seeds": (0, 1, 2, 3, 4) if seeds is None else _parse_seeds(seeds),
         "variants": fig2_scale.VARIANTS
         if variants is None
@@ -801,16 +787,7 @@ def bench(
     """
     from swarmgames.bench import run_suite
 
-    parsed = None
-    if sizes is not None:
-        try:
-            parsed = [int(x) for x in sizes.split(",") if x.strip()]
-        except ValueError:
-            parsed = []
-        if not parsed or min(parsed) < 1:
-            raise click.BadParameter(
-                f"must be comma-separated robot counts >= 1 (got {sizes!r})", param_hint="--sizes"
-            )
+    parsed = None if sizes is None else _parse_integers(sizes, "--sizes", 1, "robot counts")
     folder = _open_run_folder(out, "bench", force)
     result = run_suite(
         quick, folder, progress=True, sizes=parsed, seed=seed, workers=workers, takeoff=takeoff
