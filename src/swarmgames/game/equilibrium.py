@@ -26,12 +26,13 @@ References
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from swarmgames.arrays import freeze_fields
+from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.potentials import GamePayoffs
 
 __all__ = [
@@ -40,6 +41,7 @@ __all__ = [
     "enumerate_payoffs",
     "global_regret",
     "local_regret",
+    "owner_deviations",
     "profile_payoff",
     "pure_equilibria",
 ]
@@ -150,6 +152,34 @@ class OwnerPayoffs:
     def shape(self) -> tuple[int, int, int]:
         """``(B, K, A)`` of the games."""
         return self.action_mask.shape  # type: ignore[return-value]
+
+
+def owner_deviations(batch: LocalGameBatch, joint_actions) -> LocalGameBatch:
+    """``batch`` with every variable but the owner held at its robot's realised action: what
+    :func:`global_regret` reads of a true local game, and no more.
+
+    The owner's deviation gain reads the owner's unary row and its pairwise terms with the
+    others at their realised actions (``W[b, 0, a, l, x_l]``); neither depends on which other
+    actions the other variables have (potentials see the others' *states*, not their action
+    sets: :class:`~swarmgames.game.potentials.Potentials`). So the payoffs of this batch give
+    the same global regret as those of ``batch``, while the potentials evaluate one action per
+    neighbour instead of A.
+
+    Parameters
+    ----------
+    batch : LocalGameBatch
+        True local games, variable 0 the owner.
+    joint_actions : array_like of int, shape (N,)
+        Every robot's realised action (valid in the games where it is a variable).
+    """
+    joint = np.asarray(joint_actions, dtype=np.int64)
+    members = np.asarray(batch.members)
+    amask = np.asarray(batch.action_mask)
+    held = np.zeros_like(amask)
+    b, k = np.nonzero(batch.mask)
+    held[b, k, joint[members[b, k]]] = True
+    held[:, 0] = amask[:, 0]  # the owner keeps every action it has
+    return replace(batch, action_mask=held & amask)
 
 
 def global_regret(true_payoffs: GamePayoffs | OwnerPayoffs, joint_actions) -> np.ndarray:

@@ -43,6 +43,7 @@ from swarmgames.game.equilibrium import (
     OwnerPayoffs,
     global_regret,
     local_regret,
+    owner_deviations,
     profile_payoff,
 )
 from swarmgames.game.local import (
@@ -386,9 +387,9 @@ def _global_regret(rec: _Record, solver, messages, batches, action_model, potent
     one batch's table at a time."""
 
     def again(owners) -> np.ndarray:
-        _, true_pay, _, _ = evaluate_games(
-            solver, messages, owners, action_model, potentials, virtual_mean=False
-        )
+        batch = build_local_games(messages.views(owners), action_model, virtual_mean=False)
+        # Only the owner's row is read: the others are held at their realised actions.
+        true_pay = solver.evaluate(owner_deviations(batch, rec.actions), potentials)
         return global_regret(true_pay, rec.actions)
 
     for owners, redo, rows in batches:
