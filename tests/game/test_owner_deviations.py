@@ -59,3 +59,39 @@ def test_coverage_potentials(scenario, overrides):
     full, held, _ = _both(solver, batch, mission.potentials, actions)
     assert np.isfinite(full).all() and (full > 0).any()
     np.testing.assert_array_equal(full, held)
+
+
+@pytest.mark.parametrize(
+    ("scenario", "overrides"),
+    [
+        ("coverage-large", ["swarm.n_robots=80"]),  # owner rows alone by the compiled kernel
+        ("coverage-large", ["swarm.n_robots=80", "coverage.kernel='numpy'"]),
+        ("coverage-large", ["swarm.n_robots=80", "coverage.separation_mode='unary'"]),
+        ("coverage", ["swarm.n_robots=20", "network.backend='oracle'"]),  # full grid
+    ],
+)
+def test_owner_payoffs_are_the_owner_rows_of_the_whole_evaluation(scenario, overrides):
+    from swarmgames.game.equilibrium import OwnerPayoffs, owner_payoffs
+    from swarmgames.game.potentials import evaluate_payoffs
+
+    cfg = resolve_scenario(scenario, overrides)
+    mission = build_mission(cfg)
+    states, loop, _ = build_loop(cfg, mission, None)
+    loop.start(states)
+    loop.step()
+    view = loop.observe()
+    messages = broadcast(view.snapshot, cfg.network.hops, view.states)
+    batch = build_local_games(messages.views(), mission.action_model, virtual_mean=False)
+    g = cfg.game
+    whole = OwnerPayoffs.of(
+        evaluate_payoffs(batch, mission.potentials, g.alpha_a, g.alpha_b, dtype=g.dtype)
+    )
+    rows = owner_payoffs(batch, mission.potentials, g.alpha_a, g.alpha_b, dtype=g.dtype)
+    assert rows.unary.dtype == whole.unary.dtype
+    np.testing.assert_array_equal(rows.unary, whole.unary)
+    rng = np.random.default_rng(2)
+    actions = np.array([rng.choice(np.flatnonzero(m)) for m in batch.action_mask[:, 0]])
+    np.testing.assert_array_equal(global_regret(rows, actions), global_regret(whole, actions))
+    np.testing.assert_array_equal(
+        mission.potentials.owner_unary(batch), mission.potentials.unary(batch)[:, 0]
+    )

@@ -44,6 +44,7 @@ from swarmgames.game.equilibrium import (
     global_regret,
     local_regret,
     owner_deviations,
+    owner_payoffs,
     profile_payoff,
 )
 from swarmgames.game.local import (
@@ -389,8 +390,11 @@ def _global_regret(rec: _Record, solver, messages, batches, action_model, potent
     def again(owners) -> np.ndarray:
         batch = build_local_games(messages.views(owners), action_model, virtual_mean=False)
         # Only the owner's row is read: the others are held at their realised actions.
-        true_pay = solver.evaluate(owner_deviations(batch, rec.actions), potentials)
-        return global_regret(true_pay, rec.actions)
+        batch = owner_deviations(batch, rec.actions)
+        if not all(hasattr(solver, w) for w in ("alpha_a", "alpha_b", "dtype")):
+            return global_regret(solver.evaluate(batch, potentials), rec.actions)
+        rows = owner_payoffs(batch, potentials, solver.alpha_a, solver.alpha_b, dtype=solver.dtype)
+        return global_regret(rows, rec.actions)
 
     for owners, redo, rows in batches:
         if rows is not None:
