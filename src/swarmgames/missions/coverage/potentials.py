@@ -206,7 +206,7 @@ class CoveragePotentials:
         from scipy.spatial import cKDTree
 
         ground = np.c_[pts, np.zeros(pts.shape[0])]
-        d, _ = cKDTree(pos).query(ground)
+        d, _ = cKDTree(pos).query(ground, workers=self.workers)  # the same on any number
         return self.signal.power_sq((d * d).astype(np.float32), dtype=np.float32)
 
     def coverage(self, positions: np.ndarray) -> float:
