@@ -139,3 +139,15 @@ def test_a_small_run_of_the_preset_from_the_cli(tmp_path):
     # Every UAV took off within the derived disc.
     first = trajectory[trajectory["t"] == trajectory["t"].min()]
     assert (first["x"] ** 2 + first["y"] ** 2).max() <= cfg.swarm.start_radius_m**2
+
+
+def test_memory_estimate_counts_the_windows_not_the_whole_roi():
+    # Under a signal floor each variable integrates a disc of about 400 cells: 10 000 UAVs
+    # (1.75 M ROI cells) are estimated below a gigabyte or two, not refused.
+    from swarmgames.sim.memory import estimate_memory
+
+    small, big = (
+        estimate_memory(resolve_scenario("coverage-large", [f"swarm.n_robots={n}"]))
+        for n in (1000, 10_000)
+    )
+    assert small.total_gib < big.total_gib < 2.0
