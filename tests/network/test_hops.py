@@ -70,12 +70,12 @@ def test_the_same_on_any_number_of_threads():
     assert hop_statistics(300, edges) == one
 
 
-def test_above_max_sources_a_path_is_searched_from_evenly_spaced_sources():
+def test_above_exact_up_to_a_path_is_searched_from_evenly_spaced_sources():
     # A path of 101 nodes from sources 0, 50, 100: eccentricities 100, 50, 100, and the mean
     # over the pairs from those sources (sum of distances 5050, 2550, 5050 over 3 * 100 pairs).
     n = 101
     edges = np.column_stack([np.arange(n - 1), np.arange(1, n)])
-    mean, far = hop_statistics(n, edges, max_sources=3)
+    mean, far = hop_statistics(n, edges, exact_up_to=100, sources=3)
     assert far == 100
     assert mean == pytest.approx((5050 + 2550 + 5050) / 300)
-    assert hop_statistics(n, edges, max_sources=n) == _all_pairs(n, edges)
+    assert hop_statistics(n, edges, exact_up_to=n, sources=3) == _all_pairs(n, edges)

@@ -8,11 +8,11 @@ each keeping only its own distance row (O(N) memory per thread instead of the N 
 matrix of ``scipy.sparse.csgraph.shortest_path``), and sums the distances as integers, so the
 result does not depend on the number of threads or their order.
 
-Above ``max_sources`` robots the searches start from ``max_sources`` sources evenly spaced
-over the robot ids instead of from every robot: the mean is then over the pairs from those
-sources (an estimate of the all-pairs mean; robot ids carry no order of position), the
-maximum the largest eccentricity among them (at most the true diameter), and the cost
-O(max_sources (N + E)), linear in N.
+Above ``exact_up_to`` robots the searches start from ``sources`` robots evenly spaced over
+the ids instead of from every robot: the mean is then over the pairs from those sources (an
+estimate of the all-pairs mean; robot ids carry no order of position), the maximum the
+largest eccentricity among them (at most the true diameter), and the cost
+O(sources (N + E)), linear in N (about 0.1 s at 10 000 robots).
 """
 
 from __future__ import annotations
@@ -20,10 +20,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["MAX_SOURCES", "hop_statistics"]
+__all__ = ["EXACT_UP_TO", "SOURCES", "hop_statistics"]
 
-#: Robots up to which every robot is a source (exact all-pairs statistics); above, this many.
-MAX_SOURCES = 1000
+#: Robots up to which every robot is a source (exact all-pairs statistics).
+EXACT_UP_TO = 1000
+#: Sources of the searches above :data:`EXACT_UP_TO` robots.
+SOURCES = 256
 
 
 @njit(cache=True, nogil=True)
@@ -69,7 +71,7 @@ def _searches(indptr, indices, sources, n_chunks):
 
 
 def hop_statistics(
-    n_nodes: int, edges: np.ndarray, max_sources: int = MAX_SOURCES
+    n_nodes: int, edges: np.ndarray, exact_up_to: int = EXACT_UP_TO, sources: int = SOURCES
 ) -> tuple[float, int]:
     """Mean and largest hop count over the reachable ordered pairs of an undirected graph.
 
@@ -79,9 +81,10 @@ def hop_statistics(
         N, the nodes ``0 .. N - 1``.
     edges : ndarray of int, shape (E, 2)
         Undirected links (each once, either order; no self-links).
-    max_sources : int, default :data:`MAX_SOURCES`
-        Search from every node up to this many nodes, else from this many evenly spaced ones
-        (see the module notes).
+    exact_up_to : int, default :data:`EXACT_UP_TO`
+        Search from every node up to this many nodes,
+    sources : int, default :data:`SOURCES`
+        else from this many evenly spaced ones (see the module notes).
 
     Returns
     -------
@@ -105,12 +108,12 @@ def hop_statistics(
     indices = np.concatenate([edges[:, 1], edges[:, 0]])[order].astype(np.int32)
     indptr = np.zeros(n_nodes + 1, dtype=np.int64)
     np.cumsum(np.bincount(ends, minlength=n_nodes), out=indptr[1:])
-    if n_nodes <= max_sources:
-        sources = np.arange(n_nodes, dtype=np.int32)
+    if n_nodes <= exact_up_to:
+        starts = np.arange(n_nodes, dtype=np.int32)
     else:
-        sources = np.unique(np.linspace(0, n_nodes - 1, max_sources).round().astype(np.int32))
-    chunks = int(min(sources.size, 64))
-    total, pairs, far = _searches(indptr, indices, sources, chunks)
+        starts = np.unique(np.linspace(0, n_nodes - 1, sources).round().astype(np.int32))
+    chunks = int(min(starts.size, 64))
+    total, pairs, far = _searches(indptr, indices, starts, chunks)
     count = int(pairs.sum())
     if count == 0:
         return 0.0, 0

@@ -64,9 +64,9 @@ def swarm_graph_stats(snapshot: TopologySnapshot) -> tuple[float, int, int, np.n
     routes, paper Fig. 1's "unreachable pairs left out"), so they do not depend on how far
     the tables themselves reach: OLSR in HELLO-only mode (h <= 2) holds no route longer than
     2 hops, yet the swarm may be 6 hops across. Up to
-    :data:`~swarmgames.network.hops.MAX_SOURCES` robots they are exact all-pairs statistics;
-    above, from that many evenly spaced sources (:func:`~swarmgames.network.hops.
-    hop_statistics`), so that their cost stays linear in N.
+    :data:`~swarmgames.network.hops.EXACT_UP_TO` robots they are exact all-pairs statistics;
+    above, from :data:`~swarmgames.network.hops.SOURCES` evenly spaced sources
+    (:func:`~swarmgames.network.hops.hop_statistics`), so that their cost stays linear in N.
     """
     n = snapshot.n_robots
     one = snapshot.hops == 1
