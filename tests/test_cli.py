@@ -446,3 +446,17 @@ def test_sweep_without_ray_exits_1_with_the_pip_command(runner, tmp_path, monkey
     res, out = _sweep(runner, tmp_path, "--executor", "ray")
     assert res.exit_code == 1
     assert "pip install 'swarmgames[ray]'" in res.output and not out.exists()
+
+
+def test_run_with_a_refinement_and_a_bad_refinement(runner, tmp_path):
+    out = tmp_path / "r"
+    args = ["run", "coverage", "--out", str(out), "--set", "game.refine=best_response"]
+    args += ["--set", "sim.duration_s=4.0", "--set", "sim.animation=false"]
+    res = runner.invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    metrics = (out / "metrics.csv").read_text().splitlines()
+    assert "expost_regret" in metrics[0] and "refine_sweeps" in metrics[0]
+    bad = runner.invoke(cli, ["run", "coverage", "--out", str(tmp_path / "b"), "--set",
+                              "game.refine=nash"])  # fmt: skip
+    assert bad.exit_code == 2
+    assert "game.refine" in bad.output and "Traceback" not in bad.output

@@ -207,7 +207,7 @@ def run(
 
 # ----------------------------------------------------------------------------- reproduce
 
-FIGURES = ("fig1", "fig2", "comms", "comms-cost", "comms-ns3", "all")
+FIGURES = ("fig1", "fig2", "fig2-scale", "comms", "comms-cost", "comms-ns3", "all")
 
 
 @cli.command()
@@ -225,11 +225,36 @@ FIGURES = ("fig1", "fig2", "comms", "comms-cost", "comms-ns3", "all")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @click.option(
     "--seeds",
-    default="0,1,2",
-    show_default=True,
+    default=None,
     metavar="S,S,...",
-    help="Seeds of every variant of `comms`.",
+    help="Seeds of every variant of `comms` (default 0,1,2) and `fig2-scale` (default 0-4).",
 )
+@click.option(
+    "--sizes",
+    default=None,
+    metavar="N,N,...",
+    help="Swarm sizes of `fig2-scale` (default 10,20,50,100,200,500,1000).",
+)
+@click.option(
+    "--variants",
+    default=None,
+    metavar="V,V,...",
+    help="game.virtual_mean settings of `fig2-scale` (default eq3,outside,exact,off).",
+)
+@click.option(
+    "--jobs",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Runs of `fig2-scale` at once (default: the CPU count).",
+)
+@click.option(
+    "--executor",
+    type=click.Choice(["local", "ray"]),
+    default="local",
+    show_default=True,
+    help="Where `fig2-scale` runs: local processes, or Ray.",
+)
+@click.option("--address", default=None, metavar="ADDR", help="Ray cluster (--executor ray).")
 @click.option("--no-progress", is_flag=True, help="Do not show a progress bar.")
 @_guarded
 def reproduce(
@@ -239,7 +264,12 @@ def reproduce(
     overrides: tuple[str, ...],
     backend: str,
     seed: int,
-    seeds: str,
+    seeds: str | None,
+    sizes: str | None,
+    variants: str | None,
+    jobs: int | None,
+    executor: str,
+    address: str | None,
     no_progress: bool,
 ) -> None:
     """Reproduce the paper's figures.
@@ -260,12 +290,22 @@ def reproduce(
           flooding and of UDP packets in ns-3, and OLSR's control traffic as the
           built-in model counts it and as ns-3 sends it, on the recorded static_20
           and waypoint_20 traces, ns-3 runs --seeds + 1 (needs ns-3)
+    fig2-scale  virtual mean neighbours at scale: the fig2-scale scenario (constant
+          density, neighbourhoods of 3 hops and more) for --sizes x --variants x
+          --seeds on the sweep machinery, resumable; results, aggregate (95 %
+          intervals) and paired tables, figures against N (docs/results.md)
     all   fig1 and fig2, into OUT/fig1 and OUT/fig2
 
-    --set overrides apply to the default scenario the figures start from.
+    --set overrides apply to the scenario the figures start from (fig2-scale: to the
+    fig2-scale scenario, before it is rescaled to each size).
     """
     from swarmgames.config import resolve_scenario
 
+    if figure == "fig2-scale":
+        _reproduce_fig2_scale(
+            out, overrides, seeds, sizes, variants, jobs, executor, address, no_progress
+        )
+        return
     base = resolve_scenario(None, overrides)
     root = out if out is not None else Path("runs") / ("figures" if figure == "all" else figure)
     if figure == "all":
@@ -294,7 +334,7 @@ def reproduce(
         res2.write(folders["fig2"])
         click.echo(f"Figure 2: {len(res2.summaries)} runs -> {folders['fig2'].path}/")
     if folders.keys() & {"comms", "comms-cost", "comms-ns3"}:
-        chosen = _parse_seeds(seeds)
+        chosen = _parse_seeds(seeds or "0,1,2")
     if "comms-cost" in folders:
         from swarmgames.experiments.comms_cost import comms_cost
 
@@ -325,6 +365,73 @@ def reproduce(
         res3 = reproduce_comms(base=base, seeds=chosen, progress=progress)
         res3.write(folders["comms"])
         click.echo(f"Communication: {len(res3.runs)} runs -> {folders['comms'].path}/")
+
+
+def _parse_list(text: str, option: str, convert: Callable[[str], Any]) -> list[Any]:
+    """The comma-separated values of ``option``; a usage error (exit 2) when one is bad."""
+    try:
+        values = [convert(x.strip()) for x in text.split(",") if x.strip()]
+    except ValueError:
+        values = []
+    if not values:
+        raise click.BadParameter(
+            f"must be comma-separated values (got {text!r})", param_hint=option
+        )
+    return values
+
+
+def _size(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise ValueError(text)
+    return value
+
+
+def _reproduce_fig2_scale(
+    out, overrides, seeds, sizes, variants, jobs, executor, address, no_progress
+) -> None:
+    from swarmgames.config import resolve_scenario
+    from swarmgames.experiments import fig2_scale
+    from swarmgames.experiments.sweep import factors_from_assignments
+
+    if address is not None and executor != "ray":
+        raise click.UsageError("--address is the address of a Ray cluster: give --executor ray")
+    root = out if out is not None else Path("runs") / "fig2-scale"
+    base = resolve_scenario(fig2_scale.SCENARIO, overrides)
+    chosen = {
+        "sizes": fig2_scale.DEFAULT_SIZES
+        if sizes is None
+        else _parse_list(sizes, "--sizes", _size),
+        "seeds": (0, 1, 2, 3, 4) if seeds is None else _parse_seeds(seeds),
+        "variants": fig2_scale.VARIANTS
+        if variants is None
+        else factors_from_assignments([f"{fig2_scale.VARIANT_COLUMN}={variants}"])[
+            fig2_scale.VARIANT_COLUMN
+        ],
+    }
+    total = len(chosen["sizes"]) * len(chosen["seeds"]) * len(chosen["variants"])
+    with _progress(f"fig2-scale ({total} runs)", not no_progress and _interactive()) as tick:
+        res = fig2_scale.reproduce_fig2_scale(
+            root,
+            **chosen,
+            base=base,
+            jobs=jobs,
+            executor=executor,
+            address=address,
+            progress=tick,
+        )
+    _console().print(_sweep_table(res.results, ["coverage_end_dbm"], "fig2-scale"))
+    counts = res.results["status"].value_counts()
+    click.echo(
+        f"{len(res.results)} runs: "
+        + ", ".join(f"{counts.get(s, 0)} {s}" for s in ("complete", "failed", "interrupted"))
+        + f" -> {root}/"
+    )
+    if res.interrupted:
+        click.secho("Interrupted: run the same command again to resume.", err=True)
+        sys.exit(130)
+    if counts.get("failed", 0):
+        sys.exit(EXIT_FAILED)
 
 
 # ----------------------------------------------------------------------------- sweep
@@ -463,7 +570,7 @@ def _estimate(mean: float, low: float, high: float) -> str:
     return f"{mean:.4g}" if math.isnan(low) else f"{mean:.4g} [{low:.4g}, {high:.4g}]"
 
 
-def _sweep_table(results, metrics: list[str]):
+def _sweep_table(results, metrics: list[str], title: str = "swarmgames sweep"):
     """Mean and 95 % interval of the plotted metrics per combination, as a rich Table."""
     from rich.table import Table
 
@@ -474,7 +581,7 @@ def _sweep_table(results, metrics: list[str]):
     agg = aggregate(results)
     shown = metrics or [m for m in DEFAULT_METRICS if m in set(agg["metric"])][:1]
     factors, varied = factor_columns(results), varied_factors(results)
-    table = Table(title="swarmgames sweep: mean [95 % interval] over the seeds")
+    table = Table(title=f"{title}: mean [95 % interval] over the seeds")
     for col in (*varied, "n", *shown):
         table.add_column(col, justify="right")
     rows = agg[agg["metric"].isin(shown)]

@@ -1,4 +1,4 @@
-"""The names of the built-in backends, solvers and engines, kept in one place.
+"""The names of the built-in backends, solvers, refinements and engines, kept in one place.
 
 The layers that implement them (:mod:`swarmgames.network.factory`,
 :mod:`swarmgames.game.solvers`, :mod:`swarmgames.game.meanfield`) and the configuration
@@ -9,7 +9,7 @@ schema does not load the layers.
 
 from __future__ import annotations
 
-__all__ = ["BACKENDS", "COMMS_MODELS", "ENGINES", "GAME_SOLVERS", "SOLVERS"]
+__all__ = ["BACKENDS", "COMMS_MODELS", "ENGINES", "GAME_SOLVERS", "REFINE_METHODS", "SOLVERS"]
 
 #: Network providers (``network.backend``).
 BACKENDS = ("olsr", "oracle", "disk", "knn", "ns3")
@@ -20,6 +20,10 @@ SOLVERS = ("mean_field", "exact", "best_response", "random")
 #: What ``game.solver`` accepts: the solvers, and the centralised baseline (the mean-field
 #: solver on one swarm-wide game).
 GAME_SOLVERS = (*SOLVERS, "centralised")
+
+#: Refinements of a solved local game's profile (``game.refine``,
+#: :mod:`swarmgames.game.refine`).
+REFINE_METHODS = ("none", "best_response")
 
 #: Mean-field engines (``game.engine``).
 ENGINES = ("auto", "compiled", "blas", "sequential")

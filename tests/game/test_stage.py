@@ -48,18 +48,42 @@ class _Counting:
 def test_global_regret_reuses_the_solved_tables(virtual_mean):
     # The true game of robot i is the solved game itself unless a member of N_i was replaced
     # by a virtual mean: only those games are evaluated a second time, and the result equals
-    # rebuilding every true game (stage_regret, the reference).
+    # rebuilding every true game (stage_regret, the reference). The ex-post games (the
+    # others at their next states) are evaluated once more, every one of them.
     pos, snap = _swarm(15, 5)
     solver = make_solver("mean_field", alpha_b=0.5)
     pot = _Counting(POT)
     out = solve_stage(solver, snap, 2, pos, MODEL, pot, virtual_mean=virtual_mean)
     virtual = local_games(snap, 2, pos, MODEL).is_virtual.any(axis=1)
     assert 0 < virtual.sum() < 15
-    assert pot.games == 15 + (int(virtual.sum()) if virtual_mean else 0)
+    assert pot.games == 15 + (int(virtual.sum()) if virtual_mean else 0) + 15
     ref = stage_regret(snap, 2, pos, MODEL, POT, out.actions, 1.0, 0.5)
     np.testing.assert_array_equal(out.global_regret, ref)
     skipped = solve_stage(solver, snap, 2, pos, MODEL, pot, global_regret=False)
     assert np.isnan(skipped.global_regret).all()
+
+
+def test_global_regret_when_an_action_is_invalid_at_a_virtual_position():
+    """On the line 0 - 1 - 2 with h = 1, robot 1 reaches outside the games of 0 and 2 and sits
+    there at its virtual mean (eq. 3), (9.9 + 2 + 9.9) / 3 = 7.27, where its own move to +x
+    (valid at its real x = 2) would leave the box x <= 10. The global regret is measured on
+    the true games all the same; robot 1's game (no virtual member) keeps its solved rows."""
+    from swarmgames.game import DisplacementActions, FunctionPotentials
+    from swarmgames.network import TopologySnapshot
+
+    hops = np.array([[0, 1, 2], [1, 0, 1], [2, 1, 0]])
+    snap = TopologySnapshot.from_hop_matrix(0.0, hops)
+    pos = np.array([[9.9, 0.0], [2.0, 0.0], [9.9, 1.0]])
+    model = DisplacementActions.headings(3.0, 4, lower=[-100.0, -100.0], upper=[10.0, 100.0])
+    goal = FunctionPotentials(lambda s: s[..., 0])  # everyone wants +x
+    solver = make_solver("mean_field", alpha_b=0.0)
+    out = solve_stage(solver, snap, 1, pos, model, goal, keep_games=True)
+    assert out.batch.is_virtual[[0, 2]].any(axis=1).all() and not out.batch.is_virtual[1].any()
+    assert out.actions[1] == 1  # +x, invalid at robot 1's virtual position
+    virtual = out.batch.states[0, list(out.batch.members[0]).index(1)]
+    assert not np.asarray(model.valid(virtual))[1]
+    ref = stage_regret(snap, 1, pos, model, goal, out.actions, 1.0, 0.0)
+    np.testing.assert_array_equal(out.global_regret, ref)
 
 
 def test_global_regret_with_an_inbox_reevaluates_only_games_it_got_wrong():
@@ -80,7 +104,7 @@ def test_global_regret_with_an_inbox_reevaluates_only_games_it_got_wrong():
     assert 0 < wrong.sum() < 15
     pot = _Counting(POT)
     out = solve_stage(solver, snap, 2, pos, MODEL, pot, virtual_mean=False, inbox=inbox)
-    assert pot.games == 15 + int(wrong.sum())
+    assert pot.games == 15 + int(wrong.sum()) + 15  # and the 15 ex-post games
     ref = stage_regret(snap, 2, pos, MODEL, POT, out.actions, 1.0, 0.5)
     np.testing.assert_array_equal(out.global_regret, ref)
 

@@ -50,6 +50,32 @@ def test_a_crashed_robot_stops_falls_silent_and_is_forgotten():
     assert res.summary["robots_failed"] == 1
 
 
+def test_the_expost_regret_is_measured_against_where_a_crashed_robot_stays(monkeypatch):
+    # The ex-post regret scores every robot against the states its neighbours reached: a
+    # crashed robot reaches none but the one it holds, whatever its decision said.
+    from swarmgames.sim.controllers import GameController
+
+    seen = []
+    measure = GameController.expost_regret
+
+    def spy(self, snapshot, states, actions, next_states):
+        seen.append((np.array(states), np.array(next_states)))
+        return measure(self, snapshot, states, actions, next_states)
+
+    monkeypatch.setattr(GameController, "expost_regret", spy)
+    res = run(_cfg({"crash": [[15.0, 2]]}, duration=12.0), progress=False)
+    assert len(seen) == 7  # the stages from 15 s to 21 s
+    for states, reached in seen:
+        np.testing.assert_array_equal(
+            reached[2], np.r_[states[2, :3], np.zeros(len(states[2]) - 3)]
+        )
+    m, _ = _frames(res)
+    after = m[m["t"] >= 15.0]
+    assert after[after["robot"] == 2]["expost_regret"].isna().all()
+    alive = after[after["robot"] != 2]["expost_regret"]
+    assert np.isfinite(alive).all() and (alive >= 0).all()
+
+
 def test_the_mission_counts_what_is_alive_where_it_is():
     from swarmgames.sim import build_mission
 

@@ -1,15 +1,16 @@
 """Golden runs: refactors must not change what a run computes.
 
 The files in ``tests/data/golden/<case>/`` were written by ``swarmgames run``
-(``trajectory.csv`` and ``swarm.csv`` as written, ``metrics.csv`` without its two wall-time
+(``trajectory.csv`` and ``swarm.csv`` as written, ``metrics.csv`` without its wall-time
 columns): the coverage cases before the mission plug-in redesign, which therefore changed
-nothing they compute, the other missions' cases when they were added. ``trajectory.csv``
-must stay byte-identical; the other two tables must hold the same values in the columns
-recorded then (columns added since, such as ``oscillation``, are checked elsewhere).
+nothing they compute, the other missions' cases when they were added, ``coverage-refine``
+(the coverage preset with its best-response refinement) when the refinement was added.
+``trajectory.csv`` must stay byte-identical; the other two tables must hold the same values
+in the columns recorded then (columns added since, such as ``oscillation``, are checked elsewhere).
 
 They were recorded with every neighbour's exact state delivered instantly, which is what
 ``comms.model = "ideal"`` keeps reproducing bit for bit. With routed messages (the default)
-and no loss six of the eight cases fly the same trajectory; ``coverage-paper`` and
+and no loss seven of the nine cases fly the same trajectory; ``coverage-paper`` and
 ``rendezvous`` do not, because a robot's reported S̄_j is the mean of what it has heard, its
 neighbours' states of the stage before (the last test of this module).
 """
@@ -26,15 +27,23 @@ from swarmgames.sim import run
 
 GOLDEN = Path(__file__).parent.parent / "data" / "golden"
 QUICK = ["sim.animation=false", "comms.model='ideal'"]
+#: The coverage preset refines every local game's profile to a pure NE since these were
+#: recorded (game.refine = "best_response"): its cases pin Algorithm 1 alone, what they
+#: recorded, and "coverage-refine" records the preset as shipped.
+ALONE = "game.refine='none'"
 CASES = {
-    "coverage": ("coverage", []),
+    "coverage": ("coverage", [ALONE]),
     "coverage-paper": ("coverage-paper", []),
-    "lloyd": ("coverage", ["sim.controller='lloyd'", "sim.duration_s=20.0"]),
-    "centralised": ("coverage", ["game.solver='centralised'", "sim.duration_s=20.0"]),
-    "acceleration": ("coverage", ["swarm.action_set='acceleration'", "sim.duration_s=20.0"]),
-    "hops3": ("coverage", ["network.hops=3", "swarm.n_robots=12", "sim.duration_s=20.0"]),
+    "lloyd": ("coverage", ["sim.controller='lloyd'", "sim.duration_s=20.0", ALONE]),
+    "centralised": ("coverage", ["game.solver='centralised'", "sim.duration_s=20.0", ALONE]),
+    "acceleration": (
+        "coverage",
+        ["swarm.action_set='acceleration'", "sim.duration_s=20.0", ALONE],
+    ),
+    "hops3": ("coverage", ["network.hops=3", "swarm.n_robots=12", "sim.duration_s=20.0", ALONE]),
     "rendezvous": ("rendezvous", ["sim.duration_s=20.0"]),
     "flocking": ("flocking", ["sim.duration_s=20.0"]),
+    "coverage-refine": ("coverage", []),
 }
 
 
@@ -52,7 +61,15 @@ def test_run_matches_golden_files(case: str, tmp_path: Path) -> None:
 
 
 #: The cases whose trajectory routed delivery without loss leaves unchanged.
-ROUTED_SAME = {"acceleration", "centralised", "coverage", "flocking", "hops3", "lloyd"}
+ROUTED_SAME = {
+    "acceleration",
+    "centralised",
+    "coverage",
+    "coverage-refine",
+    "flocking",
+    "hops3",
+    "lloyd",
+}
 
 
 @pytest.mark.slow

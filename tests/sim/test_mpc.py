@@ -14,7 +14,7 @@ from swarmgames.sim.runner import build_loop
 from .test_resume import StopAfter, assert_same_run
 
 QUICK = ["sim.animation=false", "sim.duration_s=8.0", "sim.warmup_s=4.0", "swarm.n_robots=5"]
-TIMINGS = ["solve_ms", "integrate_ms"]
+TIMINGS = ["solve_ms", "integrate_ms", "refine_ms"]
 
 
 def _cfg(scenario="coverage", *extra):

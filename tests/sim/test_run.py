@@ -205,8 +205,36 @@ def test_exact_solver_on_too_large_game_says_why():
 def test_global_regret_can_be_switched_off():
     res = run(_cfg({"sim": {"global_regret": False}}), progress=False, provider=DiskOracle())
     assert res.metrics["global_regret"].isna().all()
+    assert res.metrics["expost_regret"].isna().all()  # measured with the global regret
     assert res.summary["median_global_regret"] is None
+    assert res.summary["median_expost_regret"] is None
     assert res.summary["median_local_regret"] is not None
+
+
+@pytest.mark.parametrize("solver", ["mean_field", "centralised"])
+def test_a_refined_run_has_local_regret_zero_in_every_row(solver):
+    # game.refine = "best_response": every local game's profile is refined to a pure NE of
+    # that game, so the local regret is exactly 0 in every robot-stage (docs/game.md).
+    game = {"refine": "best_response", "solver": solver, "beta": 2.0}
+    cfg = _cfg({"swarm": {"n_robots": 7}, "sim": {"duration_s": 15.0}, "game": game})
+    res = run(cfg, progress=False, provider=DiskOracle())
+    m = res.metrics
+    if solver == "mean_field":
+        assert (m["local_regret"] == 0.0).all()
+    assert (m["refine_sweeps"] >= 1).all() and (m["refine_moves"] >= 0).all()
+    assert (m["refine_ms"] >= 0).all() and res.summary["median_refine_ms"] is not None
+    assert np.isfinite(m["expost_regret"]).all() and (m["expost_regret"] >= 0).all()
+    assert res.summary["median_expost_regret"] is not None
+    plain = run(cfg.with_overrides({"game.refine": "none"}), progress=False, provider=DiskOracle())
+    assert (plain.metrics[["refine_sweeps", "refine_moves", "refine_ms"]] == 0).all().all()
+
+
+def test_the_coverage_preset_refines_and_coverage_paper_does_not():
+    from swarmgames.config import resolve_scenario
+
+    assert resolve_scenario("coverage").game.refine == "best_response"
+    assert resolve_scenario("coverage-paper").game.refine == "none"
+    assert ScenarioConfig().game.refine == "none"  # the schema's default
 
 
 def test_config_type_checked():

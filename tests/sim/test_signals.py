@@ -92,3 +92,27 @@ def test_signal_mid_run_keeps_the_completed_stages(tmp_path, sig):
     trajectory = pd.read_csv(out / "trajectory.csv")
     assert trajectory["t"].nunique() >= 2  # the start and at least one completed stage
     assert trajectory["t"].nunique() < 600  # stopped long before the end
+
+
+def test_a_signal_whose_exception_c_code_swallowed_still_stops_the_run(monkeypatch):
+    """The handler's KeyboardInterrupt raised inside a ctypes callback (as while Numba
+    compiles) is printed and dropped by ctypes; the stage loop raises it after the stage."""
+    import ctypes
+
+    from swarmgames.config import parse_config
+    from swarmgames.sim.loop import StageLoop
+
+    callback = ctypes.CFUNCTYPE(None)(lambda: os.kill(os.getpid(), signal.SIGTERM))
+    real_step = StageLoop.step
+
+    def step(self):
+        record = real_step(self)
+        if self.stage == 2:
+            callback()  # the signal arrives inside C code; ctypes drops the exception
+        return record
+
+    monkeypatch.setattr(StageLoop, "step", step)
+    config = parse_config({"sim": {"duration_s": 6.0, "warmup_s": 0.0, "animation": False}})
+    res = swarmgames.run(config, progress=False)
+    assert res.summary["interrupted"] is True
+    assert res.summary["stages"] == 2

@@ -37,7 +37,7 @@ def _tables(result):
     return {name: result.to_frame(name) for name in ("trajectory", "metrics", "swarm")}
 
 
-TIMINGS = ["solve_ms", "integrate_ms"]
+TIMINGS = ["solve_ms", "integrate_ms", "refine_ms"]
 
 
 @pytest.fixture(scope="module")

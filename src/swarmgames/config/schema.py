@@ -30,7 +30,7 @@ from typing import Any, Literal
 
 from pydantic import Field, SerializeAsAny, field_validator, model_validator
 
-from swarmgames.names import BACKENDS, COMMS_MODELS, ENGINES, GAME_SOLVERS
+from swarmgames.names import BACKENDS, COMMS_MODELS, ENGINES, GAME_SOLVERS, REFINE_METHODS
 from swarmgames.section import Section
 
 __all__ = [
@@ -268,6 +268,15 @@ class GameConfig(_Section):
             "centralised (one swarm-wide mean-field game), random."
         ),
     )
+    refine: Literal[REFINE_METHODS] = Field(
+        "none",
+        description=(
+            "Refinement of every local game's solved profile: none (the solver's profile, "
+            "Algorithm 1 alone) or best_response (best-response sweeps from it to a pure "
+            "Nash equilibrium of the local game: local regret exactly 0; the owner plays "
+            "its refined action)."
+        ),
+    )
     virtual_mean: bool = Field(
         True, description="Replace neighbours with outside neighbours by virtual means (eq. 3)."
     )
@@ -485,7 +494,9 @@ class SimConfig(_Section):
         description=(
             "Measure every robot's stage-game regret (metrics.csv global_regret), from the "
             "solved games' tables; with virtual means on, the games that held a virtual mean "
-            "are evaluated a second time with actual states."
+            "are evaluated a second time with actual states. Also its ex-post regret "
+            "(expost_regret: against the states its neighbours reached), one more "
+            "evaluation of every true local game."
         ),
     )
     checkpoint_every: int = Field(

@@ -1,5 +1,6 @@
 """Game layer: stage graphical games, local game decomposition, virtual mean neighbours, the
-mean-field solver of Algorithm 1, baselines and equilibrium measurement.
+mean-field solver of Algorithm 1, baselines, the best-response refinement and equilibrium
+measurement (local, global and ex-post regret).
 
 See ``docs/game.md`` for the guide and the contract with scenarios.
 """
@@ -15,9 +16,11 @@ from swarmgames.game.equilibrium import (
     enumerate_payoffs,
     global_regret,
     local_regret,
+    owner_regret,
     profile_payoff,
     pure_equilibria,
 )
+from swarmgames.game.expost import expost_games, expost_regret
 from swarmgames.game.inertia import Inertia
 from swarmgames.game.local import (
     LocalView,
@@ -39,6 +42,7 @@ from swarmgames.game.potentials import (
     TablePotentials,
     evaluate_payoffs,
 )
+from swarmgames.game.refine import Refinement, refine_profiles
 from swarmgames.game.solvers import (
     SOLVERS,
     BestResponseSolver,
@@ -52,6 +56,7 @@ from swarmgames.game.solvers import (
 from swarmgames.game.stage import (
     StageSolution,
     evaluate_games,
+    measure_expost,
     measure_stage,
     plan_stage,
     solve_stage,
@@ -78,6 +83,7 @@ __all__ = [
     "OwnerPayoffs",
     "Potentials",
     "RandomSolver",
+    "Refinement",
     "Solver",
     "StageSolution",
     "TablePotentials",
@@ -95,20 +101,25 @@ __all__ = [
     "evaluate_games",
     "evaluate_payoffs",
     "exact_profiles",
+    "expost_games",
+    "expost_regret",
     "gather_views",
     "global_regret",
     "local_games",
     "local_regret",
     "make_solver",
     "mean_field",
+    "measure_expost",
     "measure_stage",
     "neighbourhood_means",
+    "owner_regret",
     "plan_stage",
     "profile_payoff",
     "pure_equilibria",
     "random_profiles",
     "reaches_outside",
     "receive",
+    "refine_profiles",
     "separate_colocated",
     "solve_stage",
     "stage_regret",

@@ -19,6 +19,7 @@ import numpy as np
 
 from swarmgames.game.equilibrium import enumerate_payoffs
 from swarmgames.game.potentials import GamePayoffs
+from swarmgames.game.refine import refine_profiles
 
 __all__ = ["best_response", "exact_profiles", "random_profiles"]
 
@@ -49,13 +50,23 @@ def exact_profiles(payoffs: GamePayoffs, max_profiles: int = 1_000_000) -> np.nd
 
 
 def best_response(
-    payoffs: GamePayoffs, max_iter: int = 200
+    payoffs: GamePayoffs, max_iter: int = 200, *, start=None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Best-response dynamics: sweep k = 0..K−1, each variable switching to its best action
-    given the others' current actions; start from the unary argmax.
+    given the others' current actions, from ``start`` (default: the unary argmax).
 
     A variable only switches on a strict improvement, so M increases with every switch and the
-    dynamics stop at a pure NE in finitely many sweeps.
+    dynamics stop at a pure NE in finitely many sweeps
+    (:func:`~swarmgames.game.refine.refine_profiles`, which this calls; the local regret of
+    a converged game is exactly 0).
+
+    Parameters
+    ----------
+    payoffs : GamePayoffs
+    max_iter : int
+        Sweeps at most, >= 1.
+    start : array_like of int, shape (B, K), optional
+        The profile the dynamics start from.
 
     Returns
     -------
@@ -65,33 +76,10 @@ def best_response(
     converged : ndarray of bool, shape (B,)
         A sweep without a switch happened.
     """
-    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
-        raise ValueError(f"max_iter must be an integer >= 1 (got {max_iter})")
-    u, w, amask = payoffs.unary, payoffs.pair_table(), payoffs.action_mask
-    b, k_vars, a = u.shape
-    x = np.where(payoffs.mask, _masked_argmax(u, amask), 0)
-    iterations = np.zeros(b, dtype=np.int64)
-    converged = np.zeros(b, dtype=bool)
-    rows = np.arange(b)
-    for it in range(1, int(max_iter) + 1):
-        changed = np.zeros(b, dtype=bool)
-        for k in range(k_vars):
-            field = u[:, k].astype(np.float64)
-            if w is not None:
-                idx = np.broadcast_to(x[:, None, :, None], (b, a, k_vars, 1))
-                field = field + np.take_along_axis(w[:, k], idx, axis=3)[..., 0].sum(axis=2)
-            best = _masked_argmax(field, amask[:, k])
-            gain = field[rows, best] - field[rows, x[:, k]]
-            switch = payoffs.mask[:, k] & (gain > 0) & ~converged
-            x[switch, k] = best[switch]
-            changed |= switch
-        newly = ~changed & ~converged
-        iterations[newly] = it
-        converged |= newly
-        if converged.all():
-            break
-    iterations[~converged] = max_iter
-    return x, iterations, converged
+    if start is None:
+        start = np.where(payoffs.mask, _masked_argmax(payoffs.unary, payoffs.action_mask), 0)
+    ref = refine_profiles(payoffs, start, max_iter)
+    return ref.profile.copy(), ref.sweeps.copy(), ref.converged.copy()
 
 
 def random_profiles(payoffs: GamePayoffs, rng: np.random.Generator) -> np.ndarray:

@@ -43,6 +43,7 @@ __all__ = [
     "local_regret",
     "owner_deviations",
     "owner_payoffs",
+    "owner_regret",
     "profile_payoff",
     "pure_equilibria",
 ]
@@ -153,6 +154,21 @@ class OwnerPayoffs:
     def shape(self) -> tuple[int, int, int]:
         """``(B, K, A)`` of the games."""
         return self.action_mask.shape  # type: ignore[return-value]
+
+    def select(self, games) -> OwnerPayoffs:
+        """The rows of the games ``games`` (indices or a boolean mask over B), in that order."""
+        games = np.asarray(games)
+        if games.dtype == bool:
+            games = np.flatnonzero(games)
+        return OwnerPayoffs(
+            self.unary[games],
+            None if self.pair is None else self.pair[games],
+            self.action_mask[games],
+            self.mask[games],
+            self.owner[games],
+            self.members[games],
+            None if self.pair_source is None else self.pair_source.select(games),
+        )
 
 
 def owner_deviations(batch: LocalGameBatch, joint_actions) -> LocalGameBatch:
@@ -269,10 +285,27 @@ def global_regret(true_payoffs: GamePayoffs | OwnerPayoffs, joint_actions) -> np
         )
     if np.any(true_payoffs.members[:, 0] != true_payoffs.owner):
         raise ValueError("global_regret needs games whose variable 0 is the owner")
-    rows = true_payoffs
-    if isinstance(rows, GamePayoffs):
-        rows = OwnerPayoffs.of(rows)
-    profile = np.where(rows.mask, joint[np.maximum(members, 0)], 0)
+    profile = np.where(true_payoffs.mask, joint[np.maximum(members, 0)], 0)
+    return owner_regret(true_payoffs, profile)
+
+
+def owner_regret(payoffs: GamePayoffs | OwnerPayoffs, profile) -> np.ndarray:
+    """Gain of each game's owner (variable 0) by deviating alone from the pure ``profile``.
+
+    Parameters
+    ----------
+    payoffs : GamePayoffs or OwnerPayoffs
+        The games, or their owners' rows.
+    profile : array_like of int, shape (B, K)
+        Every variable's action (ignored at padding; must be valid elsewhere).
+
+    Returns
+    -------
+    ndarray, shape (B,)
+        ``max_a g_0(a; x) >= 0``: column 0 of :func:`deviation_gains` (computed from the
+        owner's rows only).
+    """
+    rows = OwnerPayoffs.of(payoffs) if isinstance(payoffs, GamePayoffs) else payoffs
     x = _check_profile(rows, profile)
     field = rows.unary.astype(np.float64)
     if rows.pair is not None:

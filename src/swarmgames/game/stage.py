@@ -6,7 +6,10 @@ and the public API all call once per control period:
 1. routing tables → every robot's inbox (:func:`~swarmgames.game.local.broadcast`), robots
    split into batches of similar neighbourhood size (:func:`size_groups`);
 2. per batch: the local games (with or without virtual means, eq. 3), their payoff tables
-   (the potentials, eq. 1) and their solution (the configured solver, Algorithm 1);
+   (the potentials, eq. 1) and their solution (the configured solver, Algorithm 1); with
+   ``refine="best_response"`` each game's profile is then refined by best-response sweeps
+   from the solver's profile to a pure Nash equilibrium (:mod:`swarmgames.game.refine`),
+   and the owner plays its action of the refined profile;
 3. robots whose states coincide build the same game and would take the same action for
    ever: they get distinct actions, the order among them drawn from the stage's Generator
    (:func:`~swarmgames.game.colocated.separate_colocated`; nothing changes, and nothing is
@@ -15,7 +18,9 @@ and the public API all call once per control period:
    local regret at the profile it settled on, and its global (stage-game) regret at the
    realised joint action. The global regret needs robot i's *true* local game (actual states,
    no virtual means): it is the solved game itself whenever no member of N_i was replaced by
-   a virtual mean, and only the other games are built and evaluated a second time.
+   a virtual mean, and only the other games are built and evaluated a second time. The
+   ex-post regret (:mod:`swarmgames.game.expost`) scores robot i's actions against the
+   states its neighbours reached: its games are built and evaluated once more.
 
 ``centralised=True`` solves the swarm as one game instead (the centralised baseline) and
 measures every robot on its true local game. :func:`measure_stage` measures given actions the
@@ -47,6 +52,7 @@ from swarmgames.game.equilibrium import (
     owner_payoffs,
     profile_payoff,
 )
+from swarmgames.game.expost import expost_games, expost_regret
 from swarmgames.game.local import (
     Inbox,
     Messages,
@@ -56,6 +62,7 @@ from swarmgames.game.local import (
     local_games,
 )
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
+from swarmgames.game.refine import REFINE_METHODS, refine_profiles
 from swarmgames.game.solvers import GameSolution, Solver, sample_actions
 from swarmgames.rng import as_generator
 from swarmgames.topology import TopologySnapshot
@@ -63,6 +70,7 @@ from swarmgames.topology import TopologySnapshot
 __all__ = [
     "StageSolution",
     "evaluate_games",
+    "measure_expost",
     "measure_stage",
     "plan_stage",
     "size_groups",
@@ -104,7 +112,19 @@ class StageSolution:
     batch : LocalGameBatch or None
         The games solved, in robot order (only with ``keep_games=True``).
     solution : GameSolution or None
-        Their solution (only with ``keep_games=True``).
+        Their solution (only with ``keep_games=True``; with a refinement, its ``profile``
+        and ``actions`` are the refined ones).
+    expost_regret : ndarray, shape (N,)
+        What robot i could have gained, given the states its neighbours actually reached
+        (:mod:`swarmgames.game.expost`); NaN when not measured (the default).
+    refine_sweeps, refine_moves : ndarray of int64, shape (N,)
+        Best-response sweeps and variable switches of the refinement of robot i's game
+        (:func:`~swarmgames.game.refine.refine_profiles`: 1 and 0 for a profile that was
+        already a pure NE); 0 and 0 without a refinement (the default).
+    refine_s : float
+        Wall time of the refinements, seconds (not part of ``solve_s``).
+    expost_s : float
+        Wall time of the ex-post regret measurement, seconds.
     """
 
     actions: np.ndarray
@@ -121,8 +141,19 @@ class StageSolution:
     n_games: int = 0
     batch: LocalGameBatch | None = field(default=None, repr=False)
     solution: GameSolution | None = field(default=None, repr=False)
+    expost_regret: np.ndarray | None = None
+    refine_sweeps: np.ndarray | None = None
+    refine_moves: np.ndarray | None = None
+    refine_s: float = 0.0
+    expost_s: float = 0.0
 
     def __post_init__(self) -> None:
+        n = np.shape(self.actions)[0]
+        if self.expost_regret is None:
+            object.__setattr__(self, "expost_regret", np.full(n, np.nan))
+        for name in ("refine_sweeps", "refine_moves"):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, np.zeros(n, dtype=np.int64))
         freeze_fields(self)
 
     @property
@@ -182,6 +213,9 @@ class _Record:
         self.payoff = np.zeros(n)
         self.local_regret = np.zeros(n)
         self.global_regret = np.full(n, np.nan)
+        self.expost_regret = np.full(n, np.nan)
+        self.refine_sweeps = np.zeros(n, dtype=np.int64)
+        self.refine_moves = np.zeros(n, dtype=np.int64)
         self.neighbours = np.zeros(n, dtype=np.int64)
         self.iterations = np.zeros(n, dtype=np.int64)
         self.converged = np.zeros(n, dtype=bool)
@@ -192,8 +226,13 @@ class _Record:
         self.local_regret[owners] = local_regret(pay, profile)
         self.neighbours[owners] = np.asarray(batch.mask).sum(axis=1) - 1
 
-    def solution(self, states, action_model, **extra) -> StageSolution:
-        nxt = np.asarray(action_model.apply(states))[np.arange(states.shape[0]), self.actions]
+    def next_states(self, states, action_model) -> np.ndarray:
+        """Every robot's state after its action, (N, D)."""
+        return np.asarray(action_model.apply(states))[np.arange(states.shape[0]), self.actions]
+
+    def solution(self, states, action_model, nxt=None, **extra) -> StageSolution:
+        if nxt is None:
+            nxt = self.next_states(states, action_model)
         return StageSolution(
             actions=self.actions,
             next_states=nxt,
@@ -203,6 +242,9 @@ class _Record:
             neighbours=self.neighbours,
             iterations=self.iterations,
             converged=self.converged,
+            expost_regret=self.expost_regret,
+            refine_sweeps=self.refine_sweeps,
+            refine_moves=self.refine_moves,
             **extra,
         )
 
@@ -255,6 +297,45 @@ def _true_measures(rec: _Record, solver, messages, groups, action_model, potenti
     return integrate_s
 
 
+def _expost(rec: _Record, solver, messages, groups, next_states, action_model, potentials):
+    """Ex-post regret of every robot (:mod:`swarmgames.game.expost`) at the realised actions
+    ``rec.actions``, the others at ``next_states``, one batch's tables at a time; returns the
+    wall time, seconds."""
+    t0 = time.perf_counter()
+    for owners in groups:
+        batch = expost_games(messages.views(owners), next_states, action_model)
+        rows = OwnerPayoffs.of(solver.evaluate(batch, potentials))
+        rec.expost_regret[owners] = expost_regret(rows, rec.actions)
+        del batch, rows
+    return time.perf_counter() - t0
+
+
+def _refined(sol: GameSolution, pay: GamePayoffs, refine: str):
+    """``sol`` with the refinement ``refine`` applied to its profile (its owners playing
+    their refined actions), and the refinement (None for ``"none"``)."""
+    if refine == "none":
+        return sol, None
+    ref = refine_profiles(pay, sol.profile)
+    profile = ref.profile
+    return GameSolution(**{**sol.__dict__, "profile": profile, "actions": profile[:, 0]}), ref
+
+
+def _preferring(marginal: np.ndarray, actions: np.ndarray) -> np.ndarray:
+    """``marginal`` (M, A) with each row's ``actions`` ranked first (co-located robots keep
+    the refined action as their group's preferred one), the rest in marginal order."""
+    out = np.array(marginal, dtype=float)
+    out[np.arange(out.shape[0]), actions] = 2.0  # above any probability
+    return out
+
+
+def _check_refine(refine) -> str:
+    if refine not in REFINE_METHODS:
+        raise ValueError(
+            f"refine must be one of {', '.join(map(repr, REFINE_METHODS))} (got {refine!r})"
+        )
+    return refine
+
+
 def solve_stage(
     solver: Solver,
     snapshot: TopologySnapshot,
@@ -270,6 +351,7 @@ def solve_stage(
     global_regret: bool = True,
     keep_games: bool = False,
     inbox: Inbox | None = None,
+    refine: str = "none",
 ) -> StageSolution:
     """Decide and measure every robot's action for one control period.
 
@@ -299,7 +381,7 @@ def solve_stage(
         work and memory when neighbourhood sizes are uneven. Results do not depend on it,
         except through the draws of ``rng`` and up to rounding with ``engine="blas"``.
     global_regret : bool, default True
-        Measure every robot's global regret (NaN otherwise).
+        Measure every robot's global and ex-post regret (NaN otherwise).
     keep_games : bool, default False
         Return the games and their solution (``batch``, ``solution``) in robot order.
     inbox : Inbox, optional
@@ -307,6 +389,11 @@ def solve_stage(
         example the belief tables of :mod:`swarmgames.comms`); default: every member's exact
         state, delivered instantly (:func:`~swarmgames.game.local.broadcast` of ``states``).
         The measurements (global regret) always use the true games.
+    refine : {"none", "best_response"}, default "none"
+        ``"best_response"``: refine every game's solved profile by best-response sweeps
+        from it to a pure Nash equilibrium (:func:`~swarmgames.game.refine.
+        refine_profiles`; the local regret is then exactly 0), the owner playing its
+        refined action (also with ``action_choice="sample"``). Its cost is ``refine_s``.
 
     Returns
     -------
@@ -325,27 +412,34 @@ def solve_stage(
     ([1, 1], [0.0, 0.0])
     """
     gen = as_generator(rng)
+    refine = _check_refine(refine)
     states = np.asarray(states, dtype=float)
     n = states.shape[0] if states.ndim == 2 else 0
     if centralised:
         return _solve_centralised(
-            solver, snapshot, h, states, action_model, potentials, gen, buckets, keep_games
-        )
+            solver, snapshot, h, states, action_model, potentials, gen, buckets, keep_games,
+            refine, global_regret,
+        )  # fmt: skip
     t0 = time.perf_counter()
     messages = broadcast(snapshot, h, states)
     source = messages if inbox is None else inbox
     groups = size_groups(source.sizes, _check_buckets(buckets), int(action_model.n_actions))
     build_s = time.perf_counter() - t0
     rec = _Record(n, int(action_model.n_actions))
-    integrate_s = solve_s = 0.0
+    integrate_s = solve_s = refine_s = 0.0
     batches, sols = [], []
     for owners in groups:
         batch, pay, t_build, t_int = evaluate_games(
             solver, source, owners, action_model, potentials, virtual_mean=virtual_mean
         )
-        sol = solver.solve_payoffs(pay, gen)
+        sol, ref = _refined(solver.solve_payoffs(pay, gen), pay, refine)
         rec.actions[owners] = sol.actions
         rec.marginal[owners] = sol.marginals[:, 0]
+        if ref is not None:
+            rec.marginal[owners] = _preferring(sol.marginals[:, 0], sol.actions)
+            rec.refine_sweeps[owners] = ref.sweeps
+            rec.refine_moves[owners] = ref.moves
+            refine_s += ref.time_s
         rec.action_mask[owners] = pay.action_mask[:, 0]
         rec.iterations[owners] = sol.iterations
         rec.converged[owners] = sol.converged
@@ -359,23 +453,35 @@ def solve_stage(
             redo = np.asarray(batch.is_virtual).any(axis=1)
             if inbox is not None:
                 redo |= ~_knows_the_truth(batch, messages.views(owners))
-            batches.append((owners, redo, None if redo.all() else OwnerPayoffs.of(pay)))
+            # The games with a virtual member or a wrong view keep no rows: a robot's
+            # realised action need not be valid at its virtual position.
+            rows = None if redo.all() else OwnerPayoffs.of(pay).select(~redo)
+            batches.append((owners, redo, rows))
         if keep_games:
             sols.append((batch, sol))
         del pay  # this batch's table is freed before the next one is built
     rec.actions[:] = separate_colocated(states, rec.actions, rec.marginal, rec.action_mask, gen)
+    nxt = rec.next_states(states, action_model)
+    expost_s = 0.0
     if global_regret:
         _global_regret(rec, solver, messages, batches, action_model, potentials)
+        true_groups = groups
+        if inbox is not None:  # the true neighbourhoods may be sized otherwise
+            true_groups = size_groups(messages.sizes, int(buckets), int(action_model.n_actions))
+        expost_s = _expost(rec, solver, messages, true_groups, nxt, action_model, potentials)
     extra = {}
     if keep_games:
         extra = _in_robot_order(groups, sols)
     return rec.solution(
         states,
         action_model,
+        nxt,
         integrate_s=integrate_s,
         solve_s=solve_s,
         build_s=build_s,
         n_games=n,
+        refine_s=refine_s,
+        expost_s=expost_s,
         **extra,
     )
 
@@ -398,7 +504,7 @@ def _global_regret(rec: _Record, solver, messages, batches, action_model, potent
 
     for owners, redo, rows in batches:
         if rows is not None:
-            rec.global_regret[owners] = global_regret(rows, rec.actions)
+            rec.global_regret[owners[~redo]] = global_regret(rows, rec.actions)
         if redo.any():
             rec.global_regret[owners[redo]] = again(owners[redo])
 
@@ -431,35 +537,48 @@ def _in_robot_order(groups, sols) -> dict:
 
 
 def _solve_centralised(
-    solver, snapshot, h, states, action_model, potentials, gen, buckets, keep_games
-) -> StageSolution:
-    """The swarm as one game; every robot measured on its true local game."""
+    solver, snapshot, h, states, action_model, potentials, gen, buckets, keep_games,
+    refine="none", expost=True,
+) -> StageSolution:  # fmt: skip
+    """The swarm as one game (refined to a pure NE of that game with ``refine``); every robot
+    measured on its true local game."""
     n = states.shape[0]
     t0 = time.perf_counter()
     batch = centralised_game(snapshot, h, states, action_model)
     t1 = time.perf_counter()
     pay = solver.evaluate(batch, potentials)
     t2 = time.perf_counter()
-    sol = solver.solve_payoffs(pay, gen)
+    sol, ref = _refined(solver.solve_payoffs(pay, gen), pay, refine)
     actions = np.asarray(sol.profile[0], dtype=np.int64)
-    if getattr(solver, "action_choice", "argmax") == "sample":
+    marginal = sol.marginals[0]
+    if ref is not None:
+        marginal = _preferring(marginal, actions)
+    elif getattr(solver, "action_choice", "argmax") == "sample":
         actions = sample_actions(sol.marginals[0], batch.action_mask[0], actions, gen)
     rec = _Record(n)
-    rec.actions[:] = separate_colocated(
-        states, actions, sol.marginals[0], batch.action_mask[0], gen
-    )
+    rec.actions[:] = separate_colocated(states, actions, marginal, batch.action_mask[0], gen)
     messages, groups = plan_stage(snapshot, h, states, int(action_model.n_actions), buckets)
     _true_measures(rec, solver, messages, groups, action_model, potentials)
+    nxt = rec.next_states(states, action_model)
+    expost_s = 0.0
+    if expost:
+        expost_s = _expost(rec, solver, messages, groups, nxt, action_model, potentials)
     rec.iterations[:] = int(sol.iterations[0])
     rec.converged[:] = bool(sol.converged[0])
+    if ref is not None:
+        rec.refine_sweeps[:] = int(ref.sweeps[0])
+        rec.refine_moves[:] = int(ref.moves[0])
     extra = {"batch": batch, "solution": sol} if keep_games else {}
     return rec.solution(
         states,
         action_model,
+        nxt,
         integrate_s=t2 - t1,
         solve_s=sol.solve_time_s,
         build_s=t1 - t0,
         n_games=1,
+        refine_s=0.0 if ref is None else ref.time_s,
+        expost_s=expost_s,
         **extra,
     )
 
@@ -474,10 +593,12 @@ def measure_stage(
     actions,
     *,
     buckets: int = 0,
+    expost: bool = True,
 ) -> StageSolution:
     """Measure given actions as :func:`solve_stage` measures its own: every robot's payoff,
     local and global regret in its true local game (actual states, no virtual means) at the
-    realised joint action.
+    realised joint action, and (``expost``) its ex-post regret against the states the
+    others' actions reach.
 
     For controllers that are not games (the Lloyd baseline). ``iterations`` and ``converged``
     are 0 and false, ``solve_s`` is 0 and ``integrate_s`` is the evaluation of the true games;
@@ -492,7 +613,54 @@ def measure_stage(
     rec = _Record(n)
     rec.actions[:] = actions
     integrate_s = _true_measures(rec, solver, messages, groups, action_model, potentials)
-    return rec.solution(states, action_model, integrate_s=integrate_s, n_games=n)
+    nxt = rec.next_states(states, action_model)
+    expost_s = 0.0
+    if expost:
+        expost_s = _expost(rec, solver, messages, groups, nxt, action_model, potentials)
+    return rec.solution(
+        states, action_model, nxt, integrate_s=integrate_s, n_games=n, expost_s=expost_s
+    )
+
+
+def measure_expost(
+    solver: Solver,
+    snapshot: TopologySnapshot,
+    h: int,
+    states: np.ndarray,
+    next_states: np.ndarray,
+    actions,
+    action_model: ActionModel,
+    potentials: Potentials,
+    *,
+    buckets: int = 0,
+) -> np.ndarray:
+    """Ex-post regret of every robot (:mod:`swarmgames.game.expost`): robot i's true local
+    game in ``snapshot`` (actual ``states``, N_i(h), no virtual means) with every other
+    member at the state it reached, ``next_states``, scored under ``solver``'s weights at
+    robot i's action ``actions[i]``.
+
+    For a loop whose robots do not all reach the states their actions lead to (a crashed
+    robot stays where it is); :func:`solve_stage` and :func:`measure_stage` measure it from
+    the action model's next states.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        >= 0; equal to the global regret where every neighbour stands still.
+    """
+    states = np.asarray(states, dtype=float)
+    actions = np.asarray(actions, dtype=np.int64)
+    n = states.shape[0]
+    nxt = np.asarray(next_states, dtype=float)
+    if actions.shape != (n,):
+        raise ValueError(f"actions must have shape ({n},) (got {actions.shape})")
+    if nxt.shape != states.shape:
+        raise ValueError(f"next_states must have shape {states.shape} (got {nxt.shape})")
+    messages, groups = plan_stage(snapshot, h, states, int(action_model.n_actions), buckets)
+    rec = _Record(n)
+    rec.actions[:] = actions
+    _expost(rec, solver, messages, groups, nxt, action_model, potentials)
+    return rec.expost_regret
 
 
 def stage_regret(

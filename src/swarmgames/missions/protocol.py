@@ -58,10 +58,14 @@ METRICS_COLUMNS = [
     "neighbours",
     "local_regret",
     "global_regret",
+    "expost_regret",
     "iterations",
     "converged",
     "solve_ms",
     "integrate_ms",
+    "refine_sweeps",
+    "refine_moves",
+    "refine_ms",
 ]
 SWARM_HEAD = ["t", "mean_payoff"]
 NETWORK_COLUMNS = [

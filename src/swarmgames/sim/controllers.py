@@ -11,6 +11,8 @@ controller is measured the same way:
 * ``local_regret`` — the largest gain any variable of that local game gets by deviating alone
   from that profile (0 = a pure Nash equilibrium of the local game);
 * ``global_regret`` — what robot i could gain by deviating alone in its *true* local game;
+* ``expost_regret`` — what robot i could have gained, given the states its neighbours
+  actually reached (:mod:`swarmgames.game.expost`; measured with the global regret);
 * ``iterations``, ``converged`` — of the solver; the solve and payoff-integration times.
 
 References
@@ -28,7 +30,7 @@ import numpy as np
 
 from swarmgames.errors import ConfigError
 from swarmgames.game import Solver, make_solver
-from swarmgames.game.stage import StageSolution, measure_stage, solve_stage
+from swarmgames.game.stage import StageSolution, measure_expost, measure_stage, solve_stage
 from swarmgames.missions.coverage.lloyd import lloyd_actions
 
 __all__ = ["GameController", "LloydController", "make_controller", "solver_from_config"]
@@ -63,10 +65,12 @@ class _Controller:
         self.buckets = int(config.game.buckets)
         self.solver_name = config.game.solver
         self.solver = solver_from_config(config.game)
+        self.global_regret = bool(config.sim.global_regret)
 
-    def measure(self, snapshot, states, actions) -> StageSolution:
+    def measure(self, snapshot, states, actions, *, expost: bool | None = None) -> StageSolution:
         """Given ``actions`` with the measures :func:`~swarmgames.game.stage.solve_stage`
-        takes of its own (payoff, local and global regret on the true local games)."""
+        takes of its own (payoff, local and global regret on the true local games, and the
+        ex-post regret when ``expost``; default: with ``sim.global_regret``)."""
         m = self.mission
         return measure_stage(
             self.solver,
@@ -76,6 +80,23 @@ class _Controller:
             m.action_model,
             m.potentials,
             actions,
+            buckets=self.buckets,
+            expost=self.global_regret if expost is None else bool(expost),
+        )
+
+    def expost_regret(self, snapshot, states, actions, next_states) -> np.ndarray:
+        """Every robot's ex-post regret against the states ``next_states`` the robots
+        reached (:func:`~swarmgames.game.stage.measure_expost`), (N,)."""
+        m = self.mission
+        return measure_expost(
+            self.solver,
+            snapshot,
+            self.hops,
+            states,
+            next_states,
+            actions,
+            m.action_model,
+            m.potentials,
             buckets=self.buckets,
         )
 
@@ -94,7 +115,7 @@ class GameController(_Controller):
         super().__init__(config, mission)
         self.virtual_mean = bool(config.game.virtual_mean)
         self.centralised = config.game.solver == "centralised"
-        self.global_regret = bool(config.sim.global_regret)
+        self.refine = config.game.refine
 
     def decide(self, snapshot, states, rng, inbox=None, keep_games=False) -> StageSolution:
         """Every robot's action at ``states`` with the tables of ``snapshot``, each local game
@@ -116,6 +137,7 @@ class GameController(_Controller):
                 global_regret=self.global_regret,
                 inbox=inbox,
                 keep_games=keep_games,
+                refine=self.refine,
             )
         except ValueError as exc:
             if self.solver_name != "exact":

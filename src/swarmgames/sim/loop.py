@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import copy
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -35,7 +35,7 @@ from scipy.sparse import csgraph, csr_array
 
 from swarmgames.arrays import freeze_fields
 from swarmgames.network.hops import hop_statistics
-from swarmgames.sim.signals import deferred_interrupts
+from swarmgames.sim.signals import deferred_interrupts, raise_if_signalled
 from swarmgames.topology import TopologySnapshot
 
 __all__ = [
@@ -145,11 +145,12 @@ class StageLog:
     ----------
     times : (S,) stage times, s.  states : (S + 1, N, D) states at each stage and after the
     last one.  actions : (S, N).  per_robot : dict of (S, N) arrays (payoff, neighbours,
-    local_regret, global_regret, iterations, converged, solve_ms, integrate_ms, then the
-    mission's robot metrics).  swarm : dict of (S,) arrays (mean_payoff, the mission's
-    metrics, mean_hops, max_hops, components, oscillation).  links : list of (E, 2) 1-hop
-    edges per stage.  interrupted : whether Ctrl-C stopped the loop.  wall_s : loop time, s.
-    stage_s : (S,) wall time of each stage, s.
+    local_regret, global_regret, expost_regret, iterations, converged, solve_ms, integrate_ms,
+    refine_sweeps, refine_moves, refine_ms, then the mission's robot metrics).  swarm : dict
+    of (S,) arrays (mean_payoff, the mission's metrics, mean_hops, max_hops, components,
+    oscillation).  links : list of (E, 2) 1-hop edges per stage.  interrupted : whether
+    Ctrl-C stopped the loop.  wall_s : loop time, s.  stage_s : (S,) wall time of each
+    stage, s.
     """
 
     times: np.ndarray
@@ -206,7 +207,15 @@ class StageLog:
 
 
 #: Per-robot columns of a decision, NaN for a robot that has crashed.
-DECISION_COLUMNS = ("payoff", "local_regret", "global_regret", "solve_ms", "integrate_ms")
+DECISION_COLUMNS = (
+    "payoff",
+    "local_regret",
+    "global_regret",
+    "expost_regret",
+    "solve_ms",
+    "integrate_ms",
+    "refine_ms",
+)
 
 
 def _robot_columns(stage, n: int) -> dict[str, np.ndarray]:
@@ -217,10 +226,14 @@ def _robot_columns(stage, n: int) -> dict[str, np.ndarray]:
         "neighbours": stage.neighbours,
         "local_regret": stage.local_regret,
         "global_regret": stage.global_regret,
+        "expost_regret": stage.expost_regret,
         "iterations": stage.iterations,
         "converged": stage.converged,
         "solve_ms": np.full(n, 1e3 * stage.solve_s / max(1, n)),
         "integrate_ms": np.full(n, 1e3 * stage.integrate_s / max(1, n)),
+        "refine_sweeps": stage.refine_sweeps,
+        "refine_moves": stage.refine_moves,
+        "refine_ms": np.full(n, 1e3 * stage.refine_s / max(1, n)),
     }
 
 
@@ -432,6 +445,10 @@ class StageLoop:
         new_pos = np.array(dec.next_states, dtype=float)
         new_pos[~alive] = pos[~alive]
         new_pos[~alive, 3:] = 0.0  # a crashed robot stops
+        expost = getattr(self.controller, "expost_regret", None)
+        if expost is not None and (~alive).any() and np.isfinite(dec.expost_regret).any():
+            # The ex-post regret is against the states reached: a crashed robot's own.
+            dec = replace(dec, expost_regret=expost(snap, pos, dec.actions, new_pos))
         t_next = t + self.period_s
         snap_next = self.provider.advance(
             t_next, f.network_positions(new_pos, f.radio(t_next, new_pos))
@@ -612,6 +629,7 @@ def drive(
                     on_stage(record, loop)
             if progress is not None:
                 progress(loop.stage)
+            raise_if_signalled()  # a signal whose exception C code swallowed
     except KeyboardInterrupt:
         interrupted = True
     return StageLog.from_records(

@@ -113,10 +113,15 @@ class MpcController:
         dec = self.measure(snapshot, states, chosen)
         return replace(dec, solve_s=planning + time.perf_counter() - t0)
 
-    def measure(self, snapshot, states, actions):
+    def measure(self, snapshot, states, actions, *, expost=None):
         """Given ``actions`` with their measures on the true local games (as the game
         controller's :meth:`~swarmgames.sim.controllers.GameController.measure`)."""
-        return self.inner.measure(snapshot, states, actions)
+        return self.inner.measure(snapshot, states, actions, expost=expost)
+
+    def expost_regret(self, snapshot, states, actions, next_states):
+        """Every robot's ex-post regret against the states the robots reached (the game
+        controller's :meth:`~swarmgames.sim.controllers.GameController.expost_regret`)."""
+        return self.inner.expost_regret(snapshot, states, actions, next_states)
 
     # ------------------------------------------------------------------ planning
     def _candidates(self, loop, view, myopic) -> list[np.ndarray]:
@@ -156,7 +161,8 @@ class MpcController:
                 actions = self.inner.decide(
                     view.snapshot, view.states, loop.rng, inbox=view.inbox
                 ).actions
-            record = loop.act(self.measure(view.snapshot, view.states, actions))
+            # A predicted stage is scored by its payoff: its ex-post regret is not needed.
+            record = loop.act(self.measure(view.snapshot, view.states, actions, expost=False))
             pay = np.where(record.robot["alive"], record.robot["payoff"], np.nan)
             total += float(np.nanmean(pay)) if np.isfinite(pay).any() else 0.0
         return total

@@ -72,8 +72,8 @@ def _moving(result) -> tuple[np.ndarray, np.ndarray]:
 
 
 def plot_timeseries(result) -> Figure:
-    """Mean payoff, the mission's metrics, local/global regret and the network against time;
-    with routed communication, a last row for information age, freshness and bytes.
+    """Mean payoff, the mission's metrics, local, global and ex-post regret and the network
+    against time; with routed communication, a last row for information age, freshness and bytes.
 
     One panel per mission metric: the first beside the payoff, the others in further rows.
     """
@@ -106,6 +106,13 @@ def plot_timeseries(result) -> Figure:
     reg.plot(
         grp["global_regret"].median().index, grp["global_regret"].median(), label="global, median"
     )
+    if "expost_regret" in me:
+        reg.plot(
+            grp["expost_regret"].median().index,
+            grp["expost_regret"].median(),
+            label="ex-post, median",
+            ls="--",
+        )
     reg.set_ylabel("regret")
     reg.legend(fontsize="small")
     net = axs[1, 1]

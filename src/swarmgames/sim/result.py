@@ -95,6 +95,7 @@ def summarise(log, config, mission, wall_s: float) -> dict[str, Any]:
     osc = sw.get("oscillation", np.zeros(0))
     lr = pr.get("local_regret", np.zeros((0, n)))
     gr = pr.get("global_regret", np.zeros((0, n)))
+    er = pr.get("expost_regret", np.zeros((0, n)))
     return {
         "scenario": config.name,
         "mission": getattr(mission, "name", config.scenario),
@@ -119,6 +120,7 @@ def summarise(log, config, mission, wall_s: float) -> dict[str, Any]:
             float(np.mean(lr[np.isfinite(lr)] <= 1e-9)) if np.isfinite(lr).any() else None
         ),
         "median_global_regret": _finite_median(gr),
+        "median_expost_regret": _finite_median(er),
         "mean_hops_end": float(sw["mean_hops"][-1]) if s else None,
         "max_hops_end": int(sw["max_hops"][-1]) if s else None,
         "components_end": int(sw["components"][-1]) if s else None,
@@ -133,6 +135,7 @@ def summarise(log, config, mission, wall_s: float) -> dict[str, Any]:
         ),
         "median_solve_ms": _finite_median(pr.get("solve_ms")),
         "median_integrate_ms": _finite_median(pr.get("integrate_ms")),
+        "median_refine_ms": _finite_median(pr.get("refine_ms")),
         "median_stage_ms": float(1e3 * np.median(log.stage_s)) if s else None,
         "wall_s": float(wall_s),
     }

@@ -15,7 +15,7 @@ import threading
 from collections.abc import Iterator
 from typing import Any
 
-__all__ = ["INTERRUPT_SIGNALS", "deferred_interrupts", "signals_interrupt"]
+__all__ = ["INTERRUPT_SIGNALS", "deferred_interrupts", "raise_if_signalled", "signals_interrupt"]
 
 #: The signals that stop a run like Ctrl-C (those this platform has).
 INTERRUPT_SIGNALS = tuple(
@@ -23,8 +23,40 @@ INTERRUPT_SIGNALS = tuple(
 )
 
 
+#: The signals :func:`signals_interrupt` turned into ``KeyboardInterrupt`` in its block.
+_received: list[int] = []
+
+
 def _interrupt(signum: int, frame: Any) -> None:
+    _received.append(signum)
     raise KeyboardInterrupt(f"stopped by {signal.Signals(signum).name}")
+
+
+def raise_if_signalled() -> None:
+    """Raise ``KeyboardInterrupt`` if SIGTERM or SIGHUP came inside :func:`signals_interrupt`
+    and its exception was lost.
+
+    A handler's exception raised while C code runs Python through a callback (Numba compiling
+    through ctypes, for example) is printed as "Exception ignored" and dropped, and the run
+    would carry on; the stage loop calls this between stages so that the signal still stops
+    it, one stage late at most.
+
+    Examples
+    --------
+    >>> import ctypes, os, signal
+    >>> callback = ctypes.CFUNCTYPE(None)(lambda: os.kill(os.getpid(), signal.SIGTERM))
+    >>> with signals_interrupt():
+    ...     callback()                      # the handler's exception is dropped
+    ...     try:
+    ...         raise_if_signalled()
+    ...     except KeyboardInterrupt as exc:
+    ...         print(exc)
+    stopped by SIGTERM
+    """
+    if _received:
+        signum = _received[0]
+        _received.clear()
+        raise KeyboardInterrupt(f"stopped by {signal.Signals(signum).name}")
 
 
 @contextlib.contextmanager
@@ -48,9 +80,11 @@ def signals_interrupt() -> Iterator[None]:
         yield
         return
     previous = {sig: signal.signal(sig, _interrupt) for sig in INTERRUPT_SIGNALS}
+    _received.clear()
     try:
         yield
     finally:
+        _received.clear()
         for sig, handler in previous.items():
             # None: a handler installed from C, which Python cannot reinstall.
             signal.signal(sig, signal.SIG_DFL if handler is None else handler)

@@ -31,7 +31,13 @@ BASE = parse_config(TINY)
 GRID = {"swarm.n_robots": [3, 4]}
 SEEDS = [0, 1]
 #: Summary columns that are wall times, different in any two runs.
-TIMINGS = ["wall_s", "median_solve_ms", "median_integrate_ms", "median_stage_ms"]
+TIMINGS = [
+    "wall_s",
+    "median_solve_ms",
+    "median_integrate_ms",
+    "median_refine_ms",
+    "median_stage_ms",
+]
 
 
 def _same_numbers(a: pd.DataFrame, b: pd.DataFrame) -> None:
@@ -264,3 +270,17 @@ def test_sigterm_stops_a_sweep_in_processes_and_the_same_command_resumes(tmp_pat
     again = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300, check=False)
     assert again.returncode == 0, again.stderr
     assert (pd.read_csv(out / "results.csv")["status"] == "complete").all()
+
+
+def test_a_run_folder_written_before_a_field_was_added_is_the_same_run(reference, executed):
+    """A ``config.toml`` without a field the schema has gained since (at its default) is the
+    configuration the sweep would run: its runs are read, not run again."""
+    out, res = reference
+    folder = out / res["folder"].iloc[0] / "config.toml"
+    text = folder.read_text(encoding="utf-8")
+    older = "\n".join(line for line in text.splitlines() if not line.startswith("buckets ="))
+    assert older != text
+    folder.write_text(older + "\n", encoding="utf-8")
+    again = swarmgames.sweep(BASE, GRID, SEEDS, jobs=1, out=out)
+    assert executed == []
+    _same_numbers(again, res)

@@ -58,7 +58,11 @@ def plot_metric(results: pd.DataFrame, metric: str) -> Figure:
     if positions is not None:
         ax.set_xticks(list(positions.values()), [str(level) for level in positions])
     elif x is not None and results[x].nunique() <= 12:
-        ax.set_xticks(sorted(results[x].unique()))  # the levels themselves
+        levels = sorted(results[x].unique())
+        if levels[0] > 0 and levels[-1] >= 20 * levels[0]:  # sizes 10 ... 1000: log axis
+            ax.set_xscale("log")
+            ax.minorticks_off()
+        ax.set_xticks(levels, [f"{v:g}" for v in levels])  # the levels themselves
     elif x is None:
         ax.set_xticks([0], ["all runs"])
     ax.set_xlabel(x or "")

@@ -31,7 +31,7 @@ from typing import Any, Literal
 import pandas as pd
 
 from swarmgames.config import ScenarioConfig, resolve_scenario, to_toml
-from swarmgames.config.io import toml_literal
+from swarmgames.config.io import load_config, toml_literal
 from swarmgames.errors import ConfigError, RunFolderError
 from swarmgames.experiments.sweep.executors import (
     EXECUTORS,
@@ -67,16 +67,28 @@ class _Found:
     summary: Mapping[str, Any] | None = None
 
 
+def _same_config(path: Path, config: ScenarioConfig) -> bool:
+    """Whether the run folder's ``config.toml`` is ``config``, read with today's schema (a
+    field added since, at its default, or a value spelt another way is the same run); True
+    when there is no readable file (the folder's manifest then decides)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return True
+    if text == to_toml(config):
+        return True
+    try:
+        return to_toml(load_config(path)) == to_toml(config)
+    except ConfigError:
+        return False
+
+
 def _inspect(folder: Path, config: ScenarioConfig) -> _Found:
     from swarmgames.sim.journal import read_manifest
 
     if not folder.exists():
         return _Found("new")
-    try:
-        text = (folder / "config.toml").read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError):
-        text = None
-    if text is not None and text != to_toml(config):
+    if not _same_config(folder / "config.toml", config):
         raise RunFolderError(
             f"{folder} holds a run of another configuration (its config.toml is not the one "
             "this sweep runs there); choose another --out"
