@@ -766,6 +766,13 @@ def compare(
     help="Robots of the default-scenario take-off benchmarks (0 = none); the dense case, every "
     "robot within range, runs without --quick.",
 )
+@click.option(
+    "--mission",
+    type=click.IntRange(min=0, max=100_000),
+    default=None,
+    help="Robots of the whole-mission benchmark (swarmgames run coverage-large with every "
+    "output; default 1000, none with --quick; 0 = none).",
+)
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @out_option
 @force_option
@@ -775,12 +782,14 @@ def bench(
     sizes: str | None,
     workers: int | None,
     takeoff: int,
+    mission: int | None,
     seed: int,
     out: Path | None,
     force: bool,
 ) -> None:
     """Time payoff integration, local-game solving, full stages at constant density and the
-    OLSR advance against swarm size, with batched / one-by-one and built-in OLSR / ns-3 ratios.
+    OLSR advance against swarm size, with batched / one-by-one and built-in OLSR / ns-3 ratios,
+    and (without --quick) a whole 1 000-UAV mission with every output.
 
     Writes bench.json, bench.csv and bench.png (cost against N on log-log axes with the fitted
     slope) and prints a table.
@@ -790,7 +799,14 @@ def bench(
     parsed = None if sizes is None else _parse_integers(sizes, "--sizes", 1, "robot counts")
     folder = _open_run_folder(out, "bench", force)
     result = run_suite(
-        quick, folder, progress=True, sizes=parsed, seed=seed, workers=workers, takeoff=takeoff
+        quick,
+        folder,
+        progress=True,
+        sizes=parsed,
+        seed=seed,
+        workers=workers,
+        takeoff=takeoff,
+        mission=mission,
     )
     _console().print(result.table())
     click.echo(f"Wrote {folder.path}/")

@@ -9,6 +9,8 @@ the built-in ones.
 
 from __future__ import annotations
 
+from typing import Any
+
 from pydantic import BaseModel, ConfigDict
 
 __all__ = ["Section"]
@@ -36,3 +38,14 @@ class Section(BaseModel):
         against ``[game]`` or ``[swarm]``, for example); the scenario's validation calls it,
         so ``config check`` and ``run`` agree. Raise ``ValueError`` with a message that
         names the fields, the rule and the values. The base class has none."""
+
+    def derive(self, scenario) -> dict[str, dict[str, Any]]:
+        """Fields of the scenario that this section derives from the rest of it, at
+        validation time: ``{section: {field: value}}``, ``section`` an attribute of the
+        scenario (``"swarm"``, or ``"mission"`` for this section itself). The scenario's
+        validation replaces them before its cross-section rules run, and a scenario written
+        back (``config show``, a run's ``config.toml``, ``with_overrides``) leaves them out,
+        so that it reads back equal and derives them again from the new values of an
+        override. Raise ``ValueError`` naming the fields when a derived field was also given
+        explicitly (``model_fields_set``). The base class derives nothing."""
+        return {}

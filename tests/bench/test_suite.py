@@ -14,7 +14,15 @@ from swarmgames.bench.stage import StageBench
 @pytest.fixture(scope="module")
 def tiny():
     return run_suite(
-        sizes=(5, 12), repeats=1, n_single=3, ns3=False, progress=False, takeoff=30, dense=True
+        sizes=(5, 12),
+        repeats=1,
+        n_single=3,
+        ns3=False,
+        progress=False,
+        takeoff=30,
+        dense=True,
+        mission=12,
+        mission_stages=3,
     )
 
 
@@ -51,6 +59,30 @@ def test_records_of_every_benchmark(tiny):
     for r in takeoff.values():
         assert r["n_robots"] == 30 and r["peak_mb"] > 0 and r["median_s"] > 0
         assert r["peak_mb"] <= r["estimate_mb"]
+
+
+def test_whole_mission_record(tiny):
+    (rec,) = [r for r in tiny.records if r["benchmark"] == "mission"]
+    assert (rec["n_robots"], rec["stages"]) == (12, 3)
+    assert 0 < rec["loop_s"] < rec["total_s"]
+    assert rec["outputs_s"] == pytest.approx(rec["total_s"] - rec["loop_s"])
+    assert rec["median_stage_s"] > 0 and rec["stage_vs_bench"] > 0
+    assert {"animation.gif", "paths.png", "timeseries.png", "summary.json"} <= set(rec["files"])
+    # The target is that of 1 000 UAVs: not reported for this one.
+    assert not [r for r in tiny.records if r["benchmark"] == "target" and r["of"] == "mission"]
+
+
+def test_quick_runs_no_whole_mission(monkeypatch):
+    import swarmgames.bench.suite as suite
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("--quick must not run the whole mission")
+
+    monkeypatch.setattr(suite, "mission_record", refuse)
+    result = run_suite(
+        quick=True, sizes=(5,), repeats=1, n_single=2, ns3=False, progress=False, takeoff=0
+    )
+    assert not [r for r in result.records if r["benchmark"] == "mission"]
 
 
 def test_table_frame_plot_and_files(tiny, tmp_path):

@@ -32,6 +32,9 @@ and ratios measured in the same run:
   traced peak memory next to the estimate of :mod:`swarmgames.sim.memory`; and, unless
   ``quick``, the dense case: the same robots on the 25 m disc, every one within range of
   every other (``dense``: K = N).
+* ``mission`` — a whole run of the ``coverage-large`` preset (1 000 UAVs, 60 stages) with
+  every output, split into the stage loop and the outputs, and its in-run stage against the
+  ``stage`` record of the same N (:mod:`swarmgames.bench.mission`; not ``quick``);
 * ``target`` — each target of :data:`TARGETS` whose record was measured: the value, the
   limit and whether it was met (reported, never asserted).
 
@@ -58,6 +61,7 @@ from typing import Any
 import numpy as np
 
 from swarmgames.bench.game import bench_local_game
+from swarmgames.bench.mission import MISSION_ROBOTS, mission_record
 from swarmgames.bench.stage import StageBench
 from swarmgames.game.stage import evaluate_games, plan_stage
 
@@ -97,6 +101,14 @@ TARGETS = (
     Target("dense stage (300 UAVs, K = 300)", "takeoff", "median_s", 2.0, "s", dense=True),
     Target("dense stage memory", "takeoff", "peak_mb", 2048.0, "MiB", dense=True),
     Target("routed comms share of a stage", "routed_comms", "share_of_stage", 0.15, "", min_n=100),
+    Target(
+        "whole mission (1 000 UAVs, 60 stages, every output)",
+        "mission",
+        "total_s",
+        60.0,
+        "s",
+        n_robots=1_000,
+    ),
 )
 
 #: Seconds per simple operation of the physical estimate (10^8 operations in 0.1 s).
@@ -222,6 +234,14 @@ class BenchResult:
                 f"default scenario, N = {r['n_robots']:,}, {what} (K ≈ "
                 f"{r['neighbours_mean'] + 1:.0f}): {_fmt_s(r['median_s'])} per stage, peak "
                 f"{r['peak_mb']:.0f} MiB traced (estimate {r['estimate_mb']:.0f} MiB)"
+            )
+        for r in self._of("mission"):
+            vs = f", {r['stage_vs_bench']:.1f}x the bench's" if "stage_vs_bench" in r else ""
+            notes.append(
+                f"whole mission (coverage-large, N = {r['n_robots']:,}, {r['stages']} stages, "
+                f"every output): {r['total_s']:.1f} s = {r['loop_s']:.1f} s of stages + "
+                f"{r['outputs_s']:.1f} s of outputs; stage in the run "
+                f"{_fmt_s(r['median_stage_s'])}{vs}"
             )
         for r in self._of("olsr_vs_ns3"):
             if r.get("skipped"):
@@ -674,6 +694,8 @@ def run_suite(
     workers: int | None = None,
     takeoff: int | None = None,
     dense: bool | None = None,
+    mission: int | None = None,
+    mission_stages: int | None = None,
 ) -> BenchResult:
     """Run the benchmark suite (module notes) and optionally write it.
 
@@ -702,6 +724,11 @@ def run_suite(
     dense : bool, optional
         Also the dense take-off case, every robot within range (default: not ``quick``;
         about a minute at 300 robots).
+    mission : int, optional
+        Robots of the whole-mission record (``coverage-large`` with every output; default
+        :data:`~swarmgames.bench.mission.MISSION_ROBOTS`, none when ``quick``; 0 = none).
+    mission_stages : int, optional
+        Its stages (default: the preset's 60).
 
     Returns
     -------
@@ -785,6 +812,15 @@ def run_suite(
         rec = _takeoff_record(takeoff, crowded, 0 if crowded else TAKEOFF_REPEATS, seed)
         records.append(rec)
         _say(progress, f"  {_fmt_s(rec['median_s'])} per stage, peak {rec['peak_mb']:.0f} MiB")
+    mission = (0 if quick else MISSION_ROBOTS) if mission is None else int(mission)
+    if mission > 0:
+        _say(progress, f"whole mission: coverage-large, N = {mission:,}, every output")
+        rec = mission_record(mission, seed, mission_stages)
+        bench_stage = [r for r in records if r["benchmark"] == "stage" and r["n_robots"] == mission]
+        if bench_stage:
+            rec["stage_vs_bench"] = rec["median_stage_s"] / bench_stage[0]["median_s"]
+        records.append(rec)
+        _say(progress, f"  {rec['total_s']:.1f} s ({rec['loop_s']:.1f} s of stages)")
     records.extend(_targets(records))
     if ns3 is None:
         ns3 = not quick

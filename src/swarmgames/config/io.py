@@ -344,9 +344,12 @@ def toml_literal(value: Any) -> str:
     return tomli_w.dumps({"v": value})[4:].strip()
 
 
-def _toml_lines(model: BaseModel, prefix: str, annotated: bool) -> list[str]:
+def _toml_lines(
+    model: BaseModel, prefix: str, annotated: bool, derived: tuple[str, ...] = ()
+) -> list[str]:
     lines: list[str] = []
     subsections = []
+    below = model.derived_fields() if isinstance(model, ScenarioConfig) else {}
     for name, info in type(model).model_fields.items():
         value = getattr(model, name)
         if isinstance(value, BaseModel):
@@ -354,20 +357,23 @@ def _toml_lines(model: BaseModel, prefix: str, annotated: bool) -> list[str]:
             table = (
                 model.scenario if isinstance(model, ScenarioConfig) and name == "mission" else name
             )
-            subsections.append((table, value))
+            subsections.append((table, value, below.get(name, ())))
             continue
         if annotated:
             lines.append(f"# {info.description}{_constraints(info)}")
-        if value is None:
+        if name in derived:  # derived at validation: written, it would be given twice
+            if annotated:
+                lines.append(f"# {name} = {toml_literal(value)}   (derived)")
+        elif value is None:
             if annotated:
                 lines.append(f"# {name} =   (unset)")
         else:
             lines.append(f"{name} = {toml_literal(value)}")
-    for name, value in subsections:
+    for name, value, fields in subsections:
         lines += ["", f"[{prefix}{name}]"]
         if annotated:
             lines.append("# " + (type(value).__doc__ or "").strip().splitlines()[0])
-        lines += _toml_lines(value, f"{prefix}{name}.", annotated)
+        lines += _toml_lines(value, f"{prefix}{name}.", annotated, fields)
     return lines
 
 
@@ -384,15 +390,21 @@ def to_toml(config: ScenarioConfig, annotated: bool = False) -> str:
     Notes
     -----
     Fields left at ``None`` are omitted (commented out when annotated), which reads back as the
-    same ``None`` default, so ``parse_config(tomllib.loads(to_toml(c))) == c``.
+    same ``None`` default, so ``parse_config(tomllib.loads(to_toml(c))) == c``. So are the
+    fields derived at validation (:meth:`ScenarioConfig.derived_fields`, such as the ROI of
+    ``coverage.area_per_robot_m2``), which reading back derives again.
     """
     return "\n".join(_toml_lines(config, "", annotated)) + "\n"
 
 
 def to_data(config: ScenarioConfig) -> dict[str, Any]:
     """The configuration as plain data, the mission's section under its table name: what
-    :func:`parse_config` reads back into an equal configuration."""
+    :func:`parse_config` reads back into an equal configuration (the fields derived at
+    validation left out, see :func:`to_toml`)."""
     data = config.model_dump(mode="json")
+    for section, fields in config.derived_fields().items():
+        for name in fields:
+            data[section].pop(name)
     data[config.scenario] = data.pop("mission")
     return data
 

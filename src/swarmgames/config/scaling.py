@@ -3,7 +3,11 @@
 To measure how the cost of a stage grows with the number of UAVs N, the mission must stay the
 same per UAV: the ROI grows with N so that every UAV has the same area to cover, the
 integration grid keeps its cell size, and the UAVs start spread over the ROI (a take-off disc
-of 10 000 UAVs would be one clique). :func:`scaled_config` builds such a scenario.
+of 10 000 UAVs would be one clique). :func:`scaled_config` builds such a scenario on
+the ``coverage.area_per_robot_m2`` setting, which derives the ROI and the take-off disc from
+the swarm size whenever the configuration is validated (so ``with_overrides({"swarm.n_robots":
+n})`` of its result, or ``swarmgames run coverage-large --set swarm.n_robots=n``, keeps the
+density; :func:`swarmgames.missions.coverage.roi.constant_density`).
 
 The isotropic ROI :math:`\\mathcal{N}(\\mu, \\sigma^2 I)` at confidence ``c`` is the disc of
 radius :math:`r = \\sigma\\sqrt{k^2}`, :math:`k^2 = -2\\ln(1 - c)`; holding
@@ -66,8 +70,9 @@ def scaled_config(
     Returns
     -------
     ScenarioConfig
-        ROI centred at the origin, UAVs starting uniformly over the ROI's disc, payoff tables
-        in float32 (``game.dtype``).
+        ``coverage.area_per_robot_m2 = area_per_robot_m2``: the ROI centred at the origin, the
+        UAVs starting uniformly over the ROI's disc; payoff tables in float32
+        (``game.dtype``).
 
     Raises
     ------
@@ -87,15 +92,15 @@ def scaled_config(
     base = ScenarioConfig() if base is None else base
     if base.scenario != "coverage":
         raise ValueError(f"base must be a coverage scenario (got scenario = {base.scenario!r})")
-    k2 = -2.0 * math.log1p(-base.mission.confidence)
-    area = n_robots * area_per_robot_m2
-    var = area / (math.pi * k2)
-    radius = math.sqrt(area / math.pi)
     data = to_data(base)
-    data["swarm"].update(n_robots=n_robots, start_center_m=[0.0, 0.0], start_radius_m=radius)
+    # The ROI and the take-off disc follow from coverage.area_per_robot_m2 at validation.
+    for section, fields in (("swarm", DERIVED_START), ("coverage", ("roi_cov_m2",))):
+        for name in fields:
+            data[section].pop(name, None)
+    data["swarm"]["n_robots"] = n_robots
     data["coverage"].update(
+        area_per_robot_m2=area_per_robot_m2,
         roi_mean_m=[0.0, 0.0],
-        roi_cov_m2=[[var, 0.0], [0.0, var]],
         signal_floor_dbm=signal_floor_dbm,
         workers=workers,
     )
@@ -103,3 +108,7 @@ def scaled_config(
     data["game"]["dtype"] = "float32"
     data["name"] = f"{base.name}-n{n_robots}"
     return parse_config(data, source="scaled_config")
+
+
+#: The take-off fields ``coverage.area_per_robot_m2`` derives.
+DERIVED_START = ("start_center_m", "start_radius_m")

@@ -683,6 +683,7 @@ class ScenarioConfig(_Section):
     @model_validator(mode="after")
     def _cross_field_rules(self) -> ScenarioConfig:
         """Rules that span sections (each section checks its own fields)."""
+        self._derive()
         sw, sim = self.swarm, self.sim
         speed = sw.step_m / sim.control_period_s
         if sw.action_set == "headings" and speed > sw.max_speed_m_s * (1 + 1e-12):
@@ -733,6 +734,31 @@ class ScenarioConfig(_Section):
         if isinstance(self.mission, Section):
             self.mission.check_scenario(self)  # the mission's rules across sections
         return self
+
+    def _derive(self) -> None:
+        """Replace the fields the mission's section derives (:meth:`Section.derive`), once,
+        while the configuration is being validated. The replaced sections do not count the
+        derived fields as given, so that deriving again (an override, a re-read) agrees."""
+        if not isinstance(self.mission, Section):
+            return
+        for section, values in self.mission.derive(self).items():
+            current = getattr(self, section)
+            new = current.model_copy(update=values)
+            new.__pydantic_fields_set__.difference_update(values)
+            self.__dict__[section] = new  # frozen: set while validating only
+
+    def derived_fields(self) -> dict[str, tuple[str, ...]]:
+        """The fields derived at validation (:meth:`Section.derive`) by section attribute
+        (``"swarm"``, ``"mission"``), which a written-back configuration leaves out.
+
+        Examples
+        --------
+        >>> ScenarioConfig().derived_fields()
+        {}
+        """
+        if not isinstance(self.mission, Section):
+            return {}
+        return {section: tuple(values) for section, values in self.mission.derive(self).items()}
 
     def with_overrides(self, overrides: dict[str, Any]) -> ScenarioConfig:
         """A re-validated copy with fields replaced by dotted path, as ``--set`` does.

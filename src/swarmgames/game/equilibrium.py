@@ -26,13 +26,14 @@ References
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from swarmgames.arrays import freeze_fields
-from swarmgames.game.potentials import GamePayoffs
+from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
 
 __all__ = [
     "OwnerPayoffs",
@@ -40,6 +41,8 @@ __all__ = [
     "enumerate_payoffs",
     "global_regret",
     "local_regret",
+    "owner_deviations",
+    "owner_payoffs",
     "owner_regret",
     "profile_payoff",
     "pure_equilibria",
@@ -164,6 +167,93 @@ class OwnerPayoffs:
             self.members[idx],
             None if self.pair_source is None else self.pair_source.select(idx),
         )
+
+
+def owner_deviations(batch: LocalGameBatch, joint_actions) -> LocalGameBatch:
+    """``batch`` with every variable but the owner held at its robot's realised action: what
+    :func:`global_regret` reads of a true local game, and no more.
+
+    The owner's deviation gain reads the owner's unary row and its pairwise terms with the
+    others at their realised actions (``W[b, 0, a, l, x_l]``); neither depends on which other
+    actions the other variables have (potentials see the others' *states*, not their action
+    sets: :class:`~swarmgames.game.potentials.Potentials`). So the payoffs of this batch give
+    the same global regret as those of ``batch``, while the potentials evaluate one action per
+    neighbour instead of A.
+
+    Parameters
+    ----------
+    batch : LocalGameBatch
+        True local games, variable 0 the owner.
+    joint_actions : array_like of int, shape (N,)
+        Every robot's realised action (valid in the games where it is a variable).
+    """
+    joint = np.asarray(joint_actions, dtype=np.int64)
+    members = np.asarray(batch.members)
+    amask = np.asarray(batch.action_mask)
+    held = np.zeros_like(amask)
+    b, k = np.nonzero(batch.mask)
+    held[b, k, joint[members[b, k]]] = True
+    held[:, 0] = amask[:, 0]  # the owner keeps every action it has
+    return replace(batch, action_mask=held & amask)
+
+
+class _PairOnly:
+    """``potentials`` without their unary (zeros): the pairwise part of an evaluation."""
+
+    def __init__(self, potentials) -> None:
+        self.potentials = potentials
+
+    def unary(self, batch: LocalGameBatch) -> np.ndarray:
+        return np.zeros(batch.action_mask.shape)
+
+    def __getattr__(self, name: str) -> Any:  # pairwise, pair_table, pair_source
+        if name.startswith("__") or name == "potentials":
+            raise AttributeError(name)
+        return getattr(self.potentials, name)
+
+
+def owner_payoffs(
+    batch: LocalGameBatch,
+    potentials: Potentials,
+    alpha_a: float = 1.0,
+    alpha_b: float = 0.001,
+    *,
+    dtype=np.float64,
+) -> OwnerPayoffs:
+    """The owners' rows of ``evaluate_payoffs(batch, potentials, alpha_a, alpha_b, dtype)``,
+    equal to ``OwnerPayoffs.of`` of it bit for bit: what :func:`global_regret` reads.
+
+    Potentials with the optional ``owner_unary(batch) -> (B, A)`` method (φ_u of variable 0
+    only, equal to ``unary(batch)[:, 0]``) are asked for the owners' unary alone (the coverage
+    potentials then integrate one variable per game instead of K); others are evaluated
+    whole.
+
+    Raises
+    ------
+    ValueError
+        As :func:`~swarmgames.game.potentials.evaluate_payoffs`.
+    """
+    owner_fn = getattr(potentials, "owner_unary", None)
+    if not callable(owner_fn):
+        return OwnerPayoffs.of(evaluate_payoffs(batch, potentials, alpha_a, alpha_b, dtype=dtype))
+    pay = evaluate_payoffs(batch, _PairOnly(potentials), alpha_a, alpha_b, dtype=dtype)
+    amask = np.asarray(batch.action_mask)[:, 0]
+    u = np.asarray(owner_fn(batch))
+    if u.shape != amask.shape:
+        raise ValueError(f"owner_unary must have shape {amask.shape} (got {u.shape})")
+    bad = amask & ~np.isfinite(u)
+    if bad.any():
+        gb, ga = (int(v) for v in np.argwhere(bad)[0])
+        raise ValueError(
+            f"unary potential is not finite ({u[gb, ga]}) for the local game of robot "
+            f"{int(batch.owner[gb])} (game {gb}), variable 0, action {ga}"
+        )
+    dt = np.dtype(dtype)
+    unary = np.where(amask, u, 0.0).astype(dt, copy=False) * dt.type(alpha_a)
+    rows = OwnerPayoffs.of(pay)
+    return OwnerPayoffs(
+        unary, rows.pair, rows.action_mask, rows.mask, rows.owner, rows.members, rows.pair_source
+    )
 
 
 def global_regret(true_payoffs: GamePayoffs | OwnerPayoffs, joint_actions) -> np.ndarray:

@@ -83,6 +83,22 @@ class Inertia:
         moved = np.any(np.abs(nxt - now) > self.tol, axis=-1)
         return out - np.where(moved, self.cost, 0.0)
 
+    def owner_unary(self, batch: LocalGameBatch) -> np.ndarray:
+        """:meth:`unary` of every game's variable 0 only, (B, A), bit for bit (the wrapped
+        potentials' ``owner_unary`` if they have one)."""
+        inner = getattr(self.potentials, "owner_unary", None)
+        if callable(inner):
+            out = np.asarray(inner(batch), dtype=float)
+        else:
+            out = np.asarray(self.potentials.unary(batch), dtype=float)[:, 0]
+        if not self.cost:
+            return out
+        d = self.dims
+        nxt = np.asarray(batch.next_states, dtype=float)[:, 0, :, :d]
+        now = np.asarray(batch.states, dtype=float)[:, 0, None, :d]
+        moved = np.any(np.abs(nxt - now) > self.tol, axis=-1)
+        return out - np.where(moved, self.cost, 0.0)
+
     def pairwise(self, batch: LocalGameBatch) -> np.ndarray | None:
         """The wrapped pairwise term, unchanged."""
         return self.potentials.pairwise(batch)

@@ -74,6 +74,11 @@ class Potentials(Protocol):
     PairSource`` (or ``None`` to fall back to the forms above), the weighted table W
     computed per game where it is needed (:class:`PairSource`); the built-in coverage
     potentials offer it for float32 tables.
+
+    Optional owner-only form: ``owner_unary(batch) -> (B, A)``, φ_u of every game's
+    variable 0 alone, equal to ``unary(batch)[:, 0]`` bit for bit; the global regret, which
+    reads only the owners' rows of the true games, uses it
+    (:func:`~swarmgames.game.equilibrium.owner_payoffs`).
     """
 
     def unary(self, batch: LocalGameBatch) -> np.ndarray: ...

@@ -50,6 +50,8 @@ from swarmgames.game.equilibrium import (
     OwnerPayoffs,
     global_regret,
     local_regret,
+    owner_deviations,
+    owner_payoffs,
     profile_payoff,
 )
 from swarmgames.game.expost import expost_games, expost_regret
@@ -503,15 +505,18 @@ def _global_regret(rec: _Record, solver, messages, batches, action_model, potent
     """Global regret from the solved games' owner rows where they are the true games (no
     virtual mean, no context, and the members and states the robot knew are the actual ones:
     always with exact delivery, and with routed delivery wherever every message arrived
-    unchanged); the
-    other games are rebuilt with actual states and true neighbourhoods and evaluated again,
-    one batch's table at a time."""
+    unchanged); the other games are rebuilt with actual states and true neighbourhoods,
+    every neighbour held at its realised action, and only their owners' rows evaluated, one
+    batch at a time."""
 
     def again(owners) -> np.ndarray:
-        _, true_pay, _, _ = evaluate_games(
-            solver, messages, owners, action_model, potentials, virtual_mean="off"
-        )
-        return global_regret(true_pay, rec.actions)
+        batch = build_local_games(messages.views(owners), action_model, virtual_mean="off")
+        # Only the owner's row is read: the others are held at their realised actions.
+        batch = owner_deviations(batch, rec.actions)
+        if not all(hasattr(solver, w) for w in ("alpha_a", "alpha_b", "dtype")):
+            return global_regret(solver.evaluate(batch, potentials), rec.actions)
+        rows = owner_payoffs(batch, potentials, solver.alpha_a, solver.alpha_b, dtype=solver.dtype)
+        return global_regret(rows, rec.actions)
 
     for owners, redo, rows in batches:
         if rows is not None:

@@ -66,40 +66,58 @@ def _bounds(mission, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _draw(ax, mission, xy, edges, alive, radio, t: float, lo, hi) -> None:
     """One frame on ``ax`` (see :func:`render_gif`)."""
+    ax.clear()
+    _draw_background(ax, mission, lo, hi)
+    _draw_swarm(ax, xy, edges, alive, radio, t, lo, hi)
+
+
+def _draw_background(ax, mission, lo, hi) -> None:
+    """What every frame shares: the mission's background and the view."""
+    draw_background(ax, mission)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_aspect("equal")
+
+
+def _draw_swarm(ax, xy, edges, alive, radio, t: float, lo, hi) -> list:
+    """What changes from frame to frame; returns its artists."""
     n = xy.shape[0]
     wide = n > DENSE_ROBOTS
-    ax.clear()
-    draw_background(ax, mission)
-    ax.add_collection(link_lines(xy, edges, wide))
+    artists = [ax.add_collection(link_lines(xy, edges, wide), autolim=False)]
     near = _two_hop(edges, n, 0)
     ok = alive & radio
     if wide:
         counts, ex, ey = np.histogram2d(
             xy[ok, 0], xy[ok, 1], bins=60, range=[[lo[0], hi[0]], [lo[1], hi[1]]]
         )
-        ax.imshow(
-            np.ma.masked_equal(counts.T, 0),
-            origin="lower",
-            extent=(ex[0], ex[-1], ey[0], ey[-1]),
-            cmap="Blues",
-            vmin=0,
-            aspect="auto",
-            zorder=2,
-            interpolation="nearest",
+        artists.append(
+            ax.imshow(
+                np.ma.masked_equal(counts.T, 0),
+                origin="lower",
+                extent=(ex[0], ex[-1], ey[0], ey[-1]),
+                cmap="Blues",
+                vmin=0,
+                aspect="auto",
+                zorder=2,
+                interpolation="nearest",
+            )
         )
     else:
-        ax.scatter(xy[ok, 0], xy[ok, 1], s=18, color="tab:blue", zorder=3)
+        artists.append(ax.scatter(xy[ok, 0], xy[ok, 1], s=18, color="tab:blue", zorder=3))
     deaf = alive & ~radio
-    ax.scatter(xy[deaf, 0], xy[deaf, 1], s=8 if wide else 22, color="0.6", zorder=3)
     dead = ~alive
-    ax.scatter(xy[dead, 0], xy[dead, 1], s=12 if wide else 40, marker="x", color="k", zorder=4)
-    ax.scatter(xy[near, 0], xy[near, 1], s=8 if wide else 30, color="tab:orange", zorder=4)
-    ax.scatter(xy[0, 0], xy[0, 1], s=70, color="red", edgecolors="k", zorder=5)
+    artists += [
+        ax.scatter(xy[deaf, 0], xy[deaf, 1], s=8 if wide else 22, color="0.6", zorder=3),
+        ax.scatter(xy[dead, 0], xy[dead, 1], s=12 if wide else 40, marker="x", color="k", zorder=4),
+        ax.scatter(xy[near, 0], xy[near, 1], s=8 if wide else 30, color="tab:orange", zorder=4),
+        ax.scatter(xy[0, 0], xy[0, 1], s=70, color="red", edgecolors="k", zorder=5),
+    ]
+    # imshow and scatter may have widened the view: every frame shows the same one.
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
-    ax.set_aspect("equal")
     what = f"{n} robots, density" if wide else "robot 0 red, its N(2) orange"
     ax.set_title(f"t = {t:.0f} s  ({what}; crashed x)", fontsize=9)
+    return artists
 
 
 def _canvas():
@@ -125,13 +143,16 @@ def _gif(result, xy: np.ndarray, times: np.ndarray, idx: np.ndarray, fps: int) -
     lo, hi = _bounds(result.mission, xy)
     alive, radio = _flags(result, "alive", s, n), _flags(result, "radio", s, n)
     canvas, ax = _canvas()
+    _draw_background(ax, result.mission, lo, hi)  # once: each frame replaces only the swarm
     images = []
     for k in idx:
         edges = result.links[k] if k < len(result.links) else np.zeros((0, 2), dtype=int)
-        _draw(ax, result.mission, xy[k], edges, alive[k], radio[k], times[k], lo, hi)
+        artists = _draw_swarm(ax, xy[k], edges, alive[k], radio[k], times[k], lo, hi)
         canvas.draw()
         rgba = np.asarray(canvas.buffer_rgba())
         images.append(Image.fromarray(rgba[..., :3].copy()).quantize(colors=128))
+        for artist in artists:
+            artist.remove()
     buf = io.BytesIO()
     images[0].save(
         buf,

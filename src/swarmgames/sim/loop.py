@@ -34,6 +34,7 @@ import numpy as np
 from scipy.sparse import csgraph, csr_array
 
 from swarmgames.arrays import freeze_fields
+from swarmgames.network.hops import hop_statistics
 from swarmgames.sim.signals import deferred_interrupts, raise_if_signalled
 from swarmgames.topology import TopologySnapshot
 
@@ -50,40 +51,32 @@ __all__ = [
 ]
 
 
-#: Above this many robots the hop statistics come from the routing-table entries alone
-#: (an all-pairs BFS would need N^2 memory).
-HOP_STATS_MAX_NODES = 2000
-
-
 def swarm_graph_stats(snapshot: TopologySnapshot) -> tuple[float, int, int, np.ndarray]:
     """Hop statistics and connectivity of the swarm as its routing tables see it.
 
     Returns the mean and max hop count over the ordered pairs that can reach each other, the
     number of connected components of the 1-hop links (symmetric neighbours in the tables),
-    and those links as undirected edges ``(E, 2)`` with ``i < j``.
+    and those links as undirected edges ``(E, 2)`` with ``i < j``, sorted.
 
     Notes
     -----
-    Up to :data:`HOP_STATS_MAX_NODES` robots the hops are breadth-first distances over the
-    tables' 1-hop links (what settled OLSR routes, paper Fig. 1's "unreachable pairs left
-    out"), so they do not depend on how far the tables themselves reach: OLSR in HELLO-only
-    mode (h <= 2) holds no route longer than 2 hops, yet the swarm may be 6 hops across.
-    Larger swarms use the table entries, which may stop at h hops.
+    The hops are breadth-first distances over the tables' 1-hop links (what settled OLSR
+    routes, paper Fig. 1's "unreachable pairs left out"), so they do not depend on how far
+    the tables themselves reach: OLSR in HELLO-only mode (h <= 2) holds no route longer than
+    2 hops, yet the swarm may be 6 hops across. Up to
+    :data:`~swarmgames.network.hops.EXACT_UP_TO` robots they are exact all-pairs statistics;
+    above, from :data:`~swarmgames.network.hops.SOURCES` evenly spaced sources
+    (:func:`~swarmgames.network.hops.hop_statistics`), so that their cost stays linear in N.
     """
     n = snapshot.n_robots
     one = snapshot.hops == 1
     a, b = snapshot.owner[one], snapshot.dest[one]
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    edges = np.unique(np.column_stack([lo, hi]), axis=0) if lo.size else np.zeros((0, 2), int)
+    lo, hi = np.minimum(a, b).astype(np.int64), np.maximum(a, b).astype(np.int64)
+    keys = np.unique(lo * max(n, 1) + hi)  # the same rows as np.unique(..., axis=0), faster
+    edges = np.column_stack([keys // max(n, 1), keys % max(n, 1)])
     graph = csr_array((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
     n_comp = int(csgraph.connected_components(graph, directed=False)[0])
-    if n <= HOP_STATS_MAX_NODES and len(edges):
-        dist = csgraph.shortest_path(graph, directed=False, unweighted=True)
-        hops = dist[np.isfinite(dist) & (dist > 0)]
-    else:
-        hops = snapshot.hops
-    mean_h = float(hops.mean()) if hops.size else 0.0
-    max_h = int(hops.max()) if hops.size else 0
+    mean_h, max_h = hop_statistics(n, edges)
     return mean_h, max_h, n_comp, edges.astype(np.int32)
 
 

@@ -184,6 +184,13 @@ def _potentials_bytes(mission, k: int, a: int, games: int, n: int) -> tuple[floa
     if not isinstance(pot, CoveragePotentials):
         return 0.0, entries * 8.0 + crowding
     g = pot.roi.n_cells
+    if pot.signal_floor_dbm is not None:
+        # The windowed integral: each variable's disc of cells within the floor's reach
+        # (plus the move and the window's margin), not the whole ROI.
+        from swarmgames.missions.coverage.window import floor_distance_sq
+
+        reach = math.sqrt(floor_distance_sq(pot.signal, pot.signal_floor_dbm))
+        g = min(g, int(math.pi * (reach / pot.roi.cell_m + 3.0) ** 2))
     block = min(float(games) * k * a * g, max(float(pot.chunk_elems), float(a * g)))
     fields = min(games * k, n) * (a + 1) * float(g)
     best = 2.0 * min(float(games), max(1.0, pot.chunk_elems / max(1, k * a * g))) * k * g

@@ -8,11 +8,11 @@ References
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import Field, model_validator
 
-from swarmgames.missions.coverage.roi import grid_problem
+from swarmgames.missions.coverage.roi import constant_density, grid_problem
 from swarmgames.section import Section
 
 __all__ = ["CoverageConfig"]
@@ -27,6 +27,10 @@ class CoverageConfig(Section):
     cells: payoff differences between 10 m moves are resolved while a stage stays fast); the
     signal model uses ns-3's log-distance defaults (T0 = 16.0206 dBm, L0 = 46.6777 dB at 1 m,
     n = 3), the exponent the authors' scripts used.
+
+    ``area_per_robot_m2`` keeps the swarm's density whatever its size: the ROI covariance and
+    the take-off disc are then derived from ``swarm.n_robots`` when the scenario is
+    validated (:meth:`derive`), instead of being fixed numbers.
     """
 
     roi_mean_m: tuple[float, float] = Field(
@@ -35,6 +39,18 @@ class CoverageConfig(Section):
     roi_cov_m2: tuple[tuple[float, float], tuple[float, float]] = Field(
         ((62500.0, 0.0), (0.0, 62500.0)),
         description="Covariance of the Gaussian region of interest, square metres.",
+    )
+    area_per_robot_m2: float | None = Field(
+        None,
+        gt=0,
+        description=(
+            "ROI area per UAV: when set, the ROI is the isotropic Gaussian whose confidence "
+            "disc has swarm.n_robots times this area, and the UAVs take off uniformly over "
+            "that disc (swarm.start_center_m = roi_mean_m, swarm.start_radius_m = "
+            "sqrt(n_robots * area / pi)), so changing swarm.n_robots keeps the density; "
+            "mutually exclusive with roi_cov_m2, swarm.start_center_m and "
+            "swarm.start_radius_m (None = those fixed values), square metres."
+        ),
     )
     confidence: float = Field(
         0.95, gt=0, lt=1, description="Probability mass of the ROI concentration ellipse."
@@ -122,6 +138,8 @@ class CoverageConfig(Section):
 
     @model_validator(mode="after")
     def _covariance_positive_definite(self) -> CoverageConfig:
+        if self.area_per_robot_m2 is not None:  # the covariance is derived: see derive()
+            return self
         (a, b), (c, d) = self.roi_cov_m2
         if b != c or a <= 0 or a * d - b * c <= 0:
             raise ValueError(
@@ -143,3 +161,56 @@ class CoverageConfig(Section):
                 "(coverage.separation_mode = 'pairwise') (got game.alpha_b = 0); set "
                 "coverage.separation_mode = 'unary' or coverage.separation_cost_db = 0"
             )
+
+    def derive(self, scenario) -> dict[str, dict[str, Any]]:
+        """With ``area_per_robot_m2`` set: the ROI covariance and the take-off disc of
+        ``swarm.n_robots`` UAVs at that density (:func:`~swarmgames.missions.coverage.roi.
+        constant_density`); nothing otherwise.
+
+        Raises
+        ------
+        ValueError
+            One of the derived fields was also given, or the derived ROI cannot be gridded
+            with ``grid_cell_m``.
+        """
+        if self.area_per_robot_m2 is None:
+            return {}
+        given = [
+            (f"coverage.{f}", getattr(self, f))
+            for f in ("roi_cov_m2",)
+            if f in self.model_fields_set
+        ]
+        given += [
+            (f"swarm.{f}", getattr(scenario.swarm, f))
+            for f in ("start_center_m", "start_radius_m")
+            if f in scenario.swarm.model_fields_set
+        ]
+        if given:
+            names = " and ".join(path for path, _ in given)
+            values = ", ".join(f"{path} = {_plain(value)}" for path, value in given)
+            raise ValueError(
+                "coverage.area_per_robot_m2 derives coverage.roi_cov_m2, swarm.start_center_m "
+                "and swarm.start_radius_m from swarm.n_robots, so it is mutually exclusive "
+                f"with them: remove {names}, or coverage.area_per_robot_m2 (got "
+                f"coverage.area_per_robot_m2 = {self.area_per_robot_m2:g}, {values})"
+            )
+        n = scenario.swarm.n_robots
+        sigma2, radius = constant_density(n, self.area_per_robot_m2, self.confidence)
+        cov = ((sigma2, 0.0), (0.0, sigma2))
+        problem = grid_problem(cov, self.confidence, self.grid_cell_m, name="grid_cell_m")
+        if problem is not None:
+            raise ValueError(
+                f"the ROI of coverage.area_per_robot_m2 = {self.area_per_robot_m2:g} m2 for "
+                f"swarm.n_robots = {n}: coverage.{problem}"
+            )
+        return {
+            "mission": {"roi_cov_m2": cov},
+            "swarm": {"start_center_m": tuple(self.roi_mean_m), "start_radius_m": radius},
+        }
+
+
+def _plain(value: Any) -> str:
+    """A configuration value as it reads in a scenario file (tuples as lists)."""
+    if isinstance(value, tuple):
+        return "[" + ", ".join(_plain(v) for v in value) + "]"
+    return f"{value:g}" if isinstance(value, float) else repr(value)

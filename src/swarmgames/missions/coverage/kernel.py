@@ -317,6 +317,7 @@ def compiled_windowed_unary(
     workers: int = 1,
     state_ids: np.ndarray | None = None,
     chunk_elems: int = 2_000_000,
+    rows: np.ndarray | None = None,
 ) -> np.ndarray:
     """:math:`\\tilde\\phi_u` of every game, variable and action, by the fused kernel.
 
@@ -333,6 +334,10 @@ def compiled_windowed_unary(
     chunk_elems : int
         Upper bound on the elements of the table of distinct states' action signals of one
         chunk of games (float32).
+    rows : (B, K) bool, optional
+        Compute only these variables (the others are 0); every variable of ``mask`` still
+        counts among the others of its game, and a computed variable's values are those of
+        the whole computation, bit for bit. Default: every valid variable.
 
     Returns
     -------
@@ -390,7 +395,7 @@ def compiled_windowed_unary(
         try:
             for lo in range(0, B, step):
                 games = np.sort(order[lo : lo + step])
-                sub = mask[games]
+                sub = mask[games] if rows is None else mask[games] & rows[games]
                 rb, rk = np.nonzero(sub)
                 rb = games[rb]
                 slot, ub, uk = _distinct_states(rb, rk, ids[rb, rk], states, nxt, amask)

@@ -206,7 +206,7 @@ class CoveragePotentials:
         from scipy.spatial import cKDTree
 
         ground = np.c_[pts, np.zeros(pts.shape[0])]
-        d, _ = cKDTree(pos).query(ground)
+        d, _ = cKDTree(pos).query(ground, workers=self.workers)  # the same on any number
         return self.signal.power_sq((d * d).astype(np.float32), dtype=np.float32)
 
     def coverage(self, positions: np.ndarray) -> float:
@@ -241,7 +241,28 @@ class CoveragePotentials:
         self.last_integrate_s = time.perf_counter() - t0
         return out
 
-    def _windowed(self, mask, amask, states, nxt, ids=None) -> np.ndarray:
+    def owner_unary(self, batch) -> np.ndarray:
+        """:math:`\\phi_u` of every game's variable 0 only, (B, A): ``unary(batch)[:, 0]``
+        bit for bit, for the measurements that read only the owner's row (the global
+        regret). The compiled windowed kernel computes only those rows; the other paths
+        compute every row."""
+        compiled = self.signal_floor_dbm is not None and self._compiled
+        if not compiled or (self._crowding_on and self.separation_mode == "unary"):
+            return self.unary(batch)[:, 0]
+        mask = np.asarray(batch.mask, dtype=bool)
+        amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+        states = np.asarray(batch.states, dtype=float)[..., :3]
+        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+        if amask.shape[0] == 0:
+            return np.zeros(amask.shape[::2])
+        ids = 2 * np.asarray(batch.members, dtype=np.int64) + np.asarray(batch.is_virtual, bool)
+        owner = np.zeros(mask.shape, dtype=bool)
+        owner[:, 0] = True
+        out = self._windowed(mask, amask, states, nxt, ids, rows=owner)[:, 0]
+        out[~amask[:, 0]] = 0.0
+        return out
+
+    def _windowed(self, mask, amask, states, nxt, ids=None, rows=None) -> np.ndarray:
         """The unary over each variable's window of cells (``signal_floor_dbm`` set)."""
         a = self.roi.cell_m
         reach = np.sqrt(floor_distance_sq(self.signal, self.signal_floor_dbm))
@@ -264,6 +285,7 @@ class CoveragePotentials:
                 workers=self.workers,
                 state_ids=ids,
                 chunk_elems=self.chunk_elems // 2,
+                rows=rows,
             )
         return windowed_unary(
             self._raster,

@@ -20,13 +20,14 @@ References
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from swarmgames.arrays import frozen
 
-__all__ = ["MAX_CELLS", "GaussianROI", "grid_problem"]
+__all__ = ["MAX_CELLS", "GaussianROI", "constant_density", "grid_problem"]
 
 
 #: Most grid cells of the ROI's bounding box (4 M cells: 64 MB per float32 field row).
@@ -60,6 +61,28 @@ def grid_problem(
             f"{max_cells:,}; choose a larger cell (got {cell_m})"
         )
     return None
+
+
+def constant_density(
+    n_robots: int, area_per_robot_m2: float, confidence: float
+) -> tuple[float, float]:
+    """The isotropic ROI and the start disc that give every one of ``n_robots`` UAVs the
+    same area: ``(sigma2, radius)``.
+
+    The ROI :math:`\\mathcal{N}(\\mu, \\sigma^2 I)` at confidence ``c`` is the disc of radius
+    :math:`\\sigma\\sqrt{k^2}`, :math:`k^2 = -2\\ln(1 - c)`; holding its area at
+    :math:`N a` gives :math:`\\sigma^2 = N a / (\\pi k^2)`, and the start disc of the same
+    area has radius :math:`\\sqrt{N a / \\pi}`.
+
+    Examples
+    --------
+    >>> sigma2, radius = constant_density(1000, 70_000.0, 0.95)
+    >>> round(sigma2), round(radius)
+    (3718906, 4720)
+    """
+    k2 = -2.0 * math.log1p(-confidence)
+    area = n_robots * area_per_robot_m2
+    return area / (math.pi * k2), math.sqrt(area / math.pi)
 
 
 @dataclass(frozen=True, eq=False)
