@@ -181,3 +181,37 @@ def test_action_model_without_actions_is_rejected():
     pos = np.array([[0.0, 0.0], [10.0, 0.0]])
     with pytest.raises(ValueError, match=r"action model n_actions must be >= 1 \(got 0\)"):
         local_games(disk_snapshot(pos, 15.0), 1, pos, Empty())
+
+
+@pytest.mark.parametrize("mode", ["eq3", "outside"])
+def test_the_owner_is_never_a_virtual_robot(mode):
+    """N_i − N_i = ∅ (eq. 3): the owner keeps its own state even when its routing table (its
+    reported N_i) lists a neighbour it has not heard from, as with routed delivery before a
+    neighbour's first message arrives."""
+    from swarmgames.game.local import LocalView, LocalViews
+
+    model = DisplacementActions.headings(1.0, 4)
+    members = np.array([[0, 1]], dtype=np.int32)
+    views = LocalViews(
+        owner=np.array([0], dtype=np.int32),
+        members=members,
+        mask=np.ones((1, 2), dtype=bool),
+        states=np.array([[[0.0, 0.0], [1.0, 0.0]]]),
+        mean_states=np.array([[[5.0, 5.0], [0.5, 0.0]]]),
+        neighbourhoods=np.array([[[0, 1, 2], [0, 1, -1]]], dtype=np.int32),  # 2: not heard
+    )
+    batch = build_local_games(views, model, virtual_mean=mode)
+    assert not batch.is_virtual.any()
+    np.testing.assert_array_equal(batch.states[0, 0], [0.0, 0.0])
+    one = build_local_game(
+        LocalView(
+            0,
+            members[0],
+            views.states[0],
+            views.mean_states[0],
+            (np.array([0, 1, 2]), np.array([0, 1])),
+        ),
+        model,
+        virtual_mean=mode,
+    )
+    assert not one.is_virtual.any()

@@ -456,6 +456,9 @@ def build_local_games(
             is_context=is_context,
         )
     outside = reaches_outside(views.members, views.mask, views.neighbourhoods)
+    # The owner is never a virtual robot (N_i − N_i = ∅): its N_i is its own routing table,
+    # which may list neighbours it has not heard from yet, but it knows its own state.
+    outside[:, 0] = False
     is_virtual = outside & (mode != "off")
     means = views.mean_states
     if mode == "outside":
@@ -497,6 +500,7 @@ def build_local_game(
             is_context=(np.arange(k) >= members.size)[None],
         )
     outside = [set(nb.tolist()) - inside for nb in view.neighbourhoods]
+    outside[0] = set()  # the owner (column 0) is never virtual
     is_virtual = np.array([bool(o) for o in outside]) & (mode != "off")
     means = np.array(view.mean_states, dtype=float)
     if mode == "outside":
