@@ -94,6 +94,8 @@ def test_signal_mid_run_keeps_the_completed_stages(tmp_path, sig):
     assert trajectory["t"].nunique() < 600  # stopped long before the end
 
 
+# ctypes reports the exception it drops, which is what this test makes happen.
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 def test_a_signal_whose_exception_c_code_swallowed_still_stops_the_run(monkeypatch):
     """The handler's KeyboardInterrupt raised inside a ctypes callback (as while Numba
     compiles) is printed and dropped by ctypes; the stage loop raises it after the stage."""
