@@ -27,7 +27,7 @@ game also holds its context, the robots of its members' neighbourhoods: K is the
 
 With the built-in OLSR model the network's own state is added: every robot's 2-hop set holds
 K1² entries (K1 the same formula for one hop), 16 bytes each between HELLO rounds and about
-96 at the peak of a round (measured at 150 and 300 robots within range: 0.3 and 2.5 GiB). A
+80 at the peak of a round (measured at 150 and 300 robots within range: 0.25 and 1.85 GiB). A
 round happens before the stage's games are built, so only the part above the stage's own peak
 is added.
 """
@@ -55,7 +55,7 @@ INTERPRETER_BYTES = 0.35 * GIB
 
 #: Bytes per entry of the OLSR model's 2-hop sets (N K1² entries): kept between HELLO rounds,
 #: and at the peak of a HELLO round (measured: 93-94 at 150 and 300 robots within range).
-_OLSR_KEPT, _OLSR_PEAK = 16.0, 96.0
+_OLSR_KEPT, _OLSR_PEAK = 16.0, 80.0
 
 #: Share of the available memory a run may plan to use when ``sim.memory_limit_gib`` is unset.
 AVAILABLE_SHARE = 0.8

@@ -47,3 +47,18 @@ def test_sorted_contains():
         True,
     ]
     assert not sorted_contains(np.zeros(0, np.int64), np.array([1])).any()
+
+
+def test_upsert_of_sorted_new_keys_merges_them_as_the_general_path_does():
+    rng = np.random.default_rng(3)
+    keys = np.unique(rng.integers(0, 10_000, 400))
+    old, new = keys[::2], keys[1::2]
+    merged, general = KeyedTable(("a", "b")), KeyedTable(("a", "b"))
+    for t in (merged, general):
+        t.upsert(old, a=old * 1.0, b=-old * 1.0)
+    merged.upsert(new, a=new + 0.5)  # sorted and all new: merged in
+    general.upsert(new[::-1], a=new[::-1] + 0.5)  # unsorted: concatenated and sorted again
+    np.testing.assert_array_equal(merged.keys, general.keys)
+    for c in ("a", "b"):
+        np.testing.assert_array_equal(merged.cols[c], general.cols[c])
+    assert np.isneginf(merged.get("b", new)).all()

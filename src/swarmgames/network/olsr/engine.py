@@ -79,6 +79,9 @@ from swarmgames.network.olsr.tables import KeyedTable, KeySet, first_per_key, so
 from swarmgames.network.olsr.traffic import ControlTraffic
 from swarmgames.network.parameters import OlsrParameters
 
+#: 2-hop entries of a HELLO round built at once (a dense swarm's round has N K1^2 of them).
+_HELLO_CHUNK = 1 << 21
+
 __all__ = ["OlsrEngine"]
 
 _LOST, _ASYM, _SYM = 0, 1, 2
@@ -471,17 +474,29 @@ class OlsrEngine:
         self.links.upsert(lkey, asym=asym_t, sym=sym_t, ltime=ltime, created=created)
         # 2-hop set, RFC 8.2.1: only from symmetric neighbours; replaces what j said before.
         is_sym = sym_t >= d
-        rs, js, ds = r[is_sym], j[is_sym], d[is_sym]
+        rs, js = r[is_sym], j[is_sym]
+        d_of_sender = self._hello_send
         self.two_hop.drop_prefixes(rs * n + js, n)
         two = self._hello_neigh >= _SYM_NEIGH
         c_keys = hk[two]
         if c_keys.size and rs.size:
             ptr = np.searchsorted(c_keys, np.arange(self.n + 1, dtype=np.int64) * n)
-            cpos, cidx = csr_gather(ptr, js)
-            x = c_keys[cpos] % n
-            ok = x != rs[cidx]
-            keys = ((rs[cidx] * n + js[cidx]) * n + x)[ok]
-            self.two_hop.upsert(keys, expiry=ds[cidx][ok] + V)
+            # In chunks of (r, j) pairs: a HELLO round of a dense swarm lists N K1^2 2-hop
+            # entries, and only their keys, not every intermediate, should exist at once.
+            ends = np.cumsum(ptr[js + 1] - ptr[js])
+            cuts = np.searchsorted(ends, np.arange(1, ends[-1] // _HELLO_CHUNK + 1) * _HELLO_CHUNK)
+            parts = []
+            for lo, hi in zip(np.r_[0, cuts], np.r_[cuts, js.size], strict=True):
+                cpos, cidx = csr_gather(ptr, js[lo:hi])
+                x = c_keys[cpos] % n
+                owner = rs[lo:hi][cidx]
+                ok = x != owner
+                parts.append(((owner * n + js[lo:hi][cidx]) * n + x)[ok])
+            keys = np.concatenate(parts)
+            del parts
+            keys.sort()
+            # The expiry is the sender's HELLO time plus the hold time: read it from the key.
+            self.two_hop.upsert(keys, expiry=d_of_sender[(keys // n) % n] + V)
         # MPR-selector set, RFC 8.4.1.
         sel = ntype == _MPR_NEIGH
         if sel.any():

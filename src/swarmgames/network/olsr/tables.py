@@ -75,6 +75,14 @@ class KeyedTable:
         new = ~found
         if not new.any():
             return
+        if not found.any() and (keys.size < 2 or bool(np.all(keys[1:] > keys[:-1]))):
+            # Sorted keys, all new: merge them in, without sorting the whole table again.
+            self.keys = np.insert(self.keys, idx, keys)
+            for name, col in self.cols.items():
+                add = values.get(name, -np.inf)
+                add = np.broadcast_to(np.asarray(add, dtype=float), keys.shape)
+                self.cols[name] = np.insert(col, idx, add)
+            return
         all_keys = np.concatenate([self.keys, keys[new]])
         order = np.argsort(all_keys, kind="stable")
         self.keys = all_keys[order]
