@@ -406,18 +406,7 @@ def _reproduce_fig2_scale(
             address=address,
             progress=tick,
         )
-    _console().print(_sweep_table(res.results, ["coverage_end_dbm"], "fig2-scale"))
-    counts = res.results["status"].value_counts()
-    click.echo(
-        f"{len(res.results)} runs: "
-        + ", ".join(f"{counts.get(s, 0)} {s}" for s in ("complete", "failed", "interrupted"))
-        + f" -> {root}/"
-    )
-    if res.interrupted:
-        click.secho("Interrupted: run the same command again to resume.", err=True)
-        sys.exit(130)
-    if counts.get("failed", 0):
-        sys.exit(EXIT_FAILED)
+    _report_runs(res.results, root, ["coverage_end_dbm"], "fig2-scale")
 
 
 # ----------------------------------------------------------------------------- sweep
@@ -528,7 +517,13 @@ def sweep(
         progress=not no_progress and _interactive(),
         metrics=list(metrics) or None,
     )
-    _console().print(_sweep_table(results, list(metrics)))
+    _report_runs(results, out, list(metrics), "swarmgames sweep")
+
+
+def _report_runs(results, out: Path, metrics: list[str], title: str) -> None:
+    """Print a sweep's table and counts, the first failures, and exit 130 if it was
+    interrupted, 1 if a run failed."""
+    _console().print(_sweep_table(results, metrics, title))
     counts = results["status"].value_counts()
     click.echo(
         f"{len(results)} runs: "
@@ -556,7 +551,7 @@ def _estimate(mean: float, low: float, high: float) -> str:
     return f"{mean:.4g}" if math.isnan(low) else f"{mean:.4g} [{low:.4g}, {high:.4g}]"
 
 
-def _sweep_table(results, metrics: list[str], title: str = "swarmgames sweep"):
+def _sweep_table(results, metrics: list[str], title: str):
     """Mean and 95 % interval of the plotted metrics per combination, as a rich Table."""
     from rich.table import Table
 
