@@ -428,6 +428,23 @@ def _pair_row(px, py, pz, i, valid, n, scale, offset, d02, inv_sep, crowd, weigh
         row[m] = (val - crowd * (pen * pen)) * weight * valid[m]
 
 
+@njit(cache=True, nogil=True)
+def _game_points(points, valid, b):
+    """Game ``b``'s next positions as flat (K A,) coordinate arrays, its validity as float32,
+    and ``used``, one past the last valid point: the columns after it are 0, so padding
+    costs no arithmetic."""
+    n = valid.shape[1] * valid.shape[2]
+    px = np.ascontiguousarray(points[b, :, :, 0]).reshape(n)
+    py = np.ascontiguousarray(points[b, :, :, 1]).reshape(n)
+    pz = np.ascontiguousarray(points[b, :, :, 2]).reshape(n)
+    vm = valid[b].reshape(n).astype(np.float32)
+    used = 0
+    for i in range(n):
+        if vm[i] != 0.0:
+            used = i + 1
+    return px, py, pz, vm, used
+
+
 @njit(cache=True, nogil=True, parallel=True)
 def _pair_tables(games, points, valid, scale, offset, d02, inv_sep, crowd, weight, out):
     """W of ``games`` into ``out`` (G, K, A, K, A)."""
@@ -435,15 +452,7 @@ def _pair_tables(games, points, valid, scale, offset, d02, inv_sep, crowd, weigh
     n = n_k * n_a
     for g in prange(games.size):
         b = games[g]
-        px = np.ascontiguousarray(points[b, :, :, 0]).reshape(n)
-        py = np.ascontiguousarray(points[b, :, :, 1]).reshape(n)
-        pz = np.ascontiguousarray(points[b, :, :, 2]).reshape(n)
-        vm = valid[b].reshape(n).astype(np.float32)
-        # Columns past the last valid point are 0: padding costs no arithmetic.
-        used = 0
-        for i in range(n):
-            if vm[i] != 0.0:
-                used = i + 1
+        px, py, pz, vm, used = _game_points(points, valid, b)
         w = out[g].reshape((n, n))
         for i in range(n):
             k = i // n_a
@@ -461,16 +470,8 @@ def _pair_at(profile, points, valid, scale, offset, d02, inv_sep, crowd, weight,
     variable l, the row of its profile point against every point (k, a), whose squared
     differences are the table's bit for bit (W is symmetric)."""
     n_b, n_k, n_a = valid.shape
-    n = n_k * n_a
     for b in prange(n_b):
-        px = np.ascontiguousarray(points[b, :, :, 0]).reshape(n)
-        py = np.ascontiguousarray(points[b, :, :, 1]).reshape(n)
-        pz = np.ascontiguousarray(points[b, :, :, 2]).reshape(n)
-        vm = valid[b].reshape(n).astype(np.float32)
-        used = 0
-        for i in range(n):
-            if vm[i] != 0.0:
-                used = i + 1
+        px, py, pz, vm, used = _game_points(points, valid, b)
         for v in range(n_k):
             row = out[b, v]
             row[used:] = 0.0
