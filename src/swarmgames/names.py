@@ -14,6 +14,7 @@ __all__ = [
     "COMMS_MODELS",
     "ENGINES",
     "GAME_SOLVERS",
+    "PAIR_WEIGHTINGS",
     "REFINE_METHODS",
     "SOLVERS",
     "VIRTUAL_MEANS",
@@ -32,6 +33,10 @@ GAME_SOLVERS = (*SOLVERS, "centralised")
 #: Refinements of a solved local game's profile (``game.refine``,
 #: :mod:`swarmgames.game.refine`).
 REFINE_METHODS = ("none", "best_response")
+
+#: How a local game weights its pairwise terms (``game.pair_weighting``): ``sum`` gives every
+#: pair the weight α_b (eq. 1), ``mean`` gives it α_b / (K_b − 1) in a game of K_b robots.
+PAIR_WEIGHTINGS = ("sum", "mean")
 
 #: Mean-field engines (``game.engine``).
 ENGINES = ("auto", "compiled", "blas", "sequential")

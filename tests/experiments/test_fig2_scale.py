@@ -34,7 +34,8 @@ def test_the_scenario_keeps_its_density_and_take_off_disc_for_every_size():
         assert _area_per_robot(cfg) == pytest.approx(70_000.0)
         assert cfg.swarm.start_center_m == base.swarm.start_center_m
         assert cfg.swarm.start_radius_m == base.swarm.start_radius_m
-        assert (cfg.game.alpha_b, cfg.mission.move_cost_db) == (1e-4, 0.0)
+        game = cfg.game
+        assert (game.alpha_b, game.pair_weighting, cfg.mission.move_cost_db) == (1e-3, "mean", 0)
         assert cfg.mission.signal_floor_dbm == base.mission.signal_floor_dbm
     # the 100-UAV instance is the scenario file itself
     cov = scenario_for(100, base).mission.roi_cov_m2

@@ -246,3 +246,23 @@ def test_exact_context_against_the_sets_on_random_topologies(seed, n, h):
         np.testing.assert_array_equal(one.states[0], pos[one.members[0]])
         # Context robots have one action, which leaves them where they are.
         assert (one.action_mask[0][one.is_context[0]].sum(axis=1) == 1).all()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_member_columns_match_a_search_per_entry(seed):
+    # The compiled lookup against the definition: the first column of the game holding
+    # that robot, -1 for a robot outside the game and for padding.
+    from swarmgames.game.virtual import member_columns
+
+    rng = np.random.default_rng(seed)
+    b, k, l, n = 17, 9, 13, 40
+    members = np.full((b, k), -1)
+    for g in range(b):
+        m = rng.integers(1, k + 1)
+        members[g, :m] = rng.choice(n, size=m, replace=False)
+    mask = members >= 0
+    nbh = np.where(rng.random((b, k, l)) < 0.7, rng.integers(0, n + 5, (b, k, l)), -1)
+    got = member_columns(members, mask, nbh)
+    for g, j, e in np.ndindex(b, k, l):
+        cols = [c for c in range(k) if mask[g, c] and members[g, c] == nbh[g, j, e]]
+        assert got[g, j, e] == (cols[0] if cols and nbh[g, j, e] >= 0 else -1)

@@ -35,6 +35,7 @@ from swarmgames.names import (
     COMMS_MODELS,
     ENGINES,
     GAME_SOLVERS,
+    PAIR_WEIGHTINGS,
     REFINE_METHODS,
     VIRTUAL_MEANS,
 )
@@ -267,6 +268,13 @@ class GameConfig(_Section):
     alpha_a: float = Field(1.0, ge=0, description="Weight of the unary potentials (paper: 1).")
     alpha_b: float = Field(
         0.001, ge=0, description="Weight of the pairwise potentials (paper: 0.001)."
+    )
+    pair_weighting: Literal[PAIR_WEIGHTINGS] = Field(
+        "sum",
+        description="How a local game of K robots weights its pairwise terms: sum (every pair "
+        "alpha_b, eq. 1: a robot's pairwise payoff grows with its neighbourhood) or mean "
+        "(alpha_b / (K - 1): alpha_b times the mean over its partners, the same pull at any "
+        "size). Not with solver = 'centralised'.",
     )
     solver: Literal[GAME_SOLVERS] = Field(
         "mean_field",
@@ -726,6 +734,12 @@ class ScenarioConfig(_Section):
                     )
         if self.faults.jam_radius_m > 0 and self.faults.jam_center_m is None:
             raise ValueError("faults.jam_radius_m > 0 needs faults.jam_center_m (got None)")
+        if self.game.solver == "centralised" and self.game.pair_weighting != "sum":
+            raise ValueError(
+                "game.pair_weighting = 'mean' weights each local game by its size; the "
+                "centralised game is one swarm-wide game whose pairs stop at h hops, so it "
+                "needs game.pair_weighting = 'sum' (got 'mean')"
+            )
         if self.game.solver == "centralised" and sim.controller == "game" and sw.n_robots > 300:
             raise ValueError(
                 "game.solver = 'centralised' holds an N^2 A^2 table: swarm.n_robots must be "

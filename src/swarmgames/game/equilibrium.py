@@ -219,8 +219,10 @@ def owner_payoffs(
     alpha_b: float = 0.001,
     *,
     dtype=np.float64,
+    pair_weighting: str = "sum",
 ) -> OwnerPayoffs:
-    """The owners' rows of ``evaluate_payoffs(batch, potentials, alpha_a, alpha_b, dtype)``,
+    """The owners' rows of ``evaluate_payoffs(batch, potentials, alpha_a, alpha_b, dtype,
+    pair_weighting)``,
     equal to ``OwnerPayoffs.of`` of it bit for bit: what :func:`global_regret` reads.
 
     Potentials with the optional ``owner_unary(batch) -> (B, A)`` method (φ_u of variable 0
@@ -235,8 +237,13 @@ def owner_payoffs(
     """
     owner_fn = getattr(potentials, "owner_unary", None)
     if not callable(owner_fn):
-        return OwnerPayoffs.of(evaluate_payoffs(batch, potentials, alpha_a, alpha_b, dtype=dtype))
-    pay = evaluate_payoffs(batch, _PairOnly(potentials), alpha_a, alpha_b, dtype=dtype)
+        whole = evaluate_payoffs(
+            batch, potentials, alpha_a, alpha_b, dtype=dtype, pair_weighting=pair_weighting
+        )
+        return OwnerPayoffs.of(whole)
+    pay = evaluate_payoffs(
+        batch, _PairOnly(potentials), alpha_a, alpha_b, dtype=dtype, pair_weighting=pair_weighting
+    )
     amask = np.asarray(batch.action_mask)[:, 0]
     u = np.asarray(owner_fn(batch))
     if u.shape != amask.shape:

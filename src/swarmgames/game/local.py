@@ -455,11 +455,13 @@ def build_local_games(
             action_model,
             is_context=is_context,
         )
-    outside = reaches_outside(views.members, views.mask, views.neighbourhoods)
-    # The owner is never a virtual robot (N_i − N_i = ∅): its N_i is its own routing table,
-    # which may list neighbours it has not heard from yet, but it knows its own state.
-    outside[:, 0] = False
-    is_virtual = outside & (mode != "off")
+    if mode == "off":
+        is_virtual = np.zeros(np.shape(views.mask), dtype=bool)
+    else:
+        is_virtual = reaches_outside(views.members, views.mask, views.neighbourhoods)
+        # The owner is never a virtual robot (N_i − N_i = ∅): its N_i is its own routing
+        # table, which may list neighbours it has not heard from yet, but it knows its state.
+        is_virtual[:, 0] = False
     means = views.mean_states
     if mode == "outside":
         means = outside_means(

@@ -11,9 +11,14 @@ The payoff of local game b at a pure profile x (eq. 1) is
     M_b(x) = α_a Σ_k φ_u(k, x_k) + α_b Σ_{k≠l} φ_p(k, x_k, l, x_l),
 
 the pairwise sum running over ordered pairs of distinct valid variables (and, if the batch has
-one, over ``pair_mask``). :func:`evaluate_payoffs` turns potentials into the two tables the
-solvers use (:class:`GamePayoffs`): the weighted unary ``U = α_a φ_u`` and the symmetrised
-pairwise ``W[b, k, a, l, c] = α_b (φ_p(k, a, l, c) + φ_p(l, c, k, a))``, so that
+one, over ``pair_mask``). With ``pair_weighting = "mean"`` the pairwise weight of game b is
+α_b / (K_b − 1) instead, K_b its number of valid variables (:func:`pair_weights`), so that a
+variable's pairwise payoff is α_b times the mean of its terms with the others rather than their
+sum: the pull of the pairwise term then stays the same whatever the size of the neighbourhood.
+:func:`evaluate_payoffs` turns potentials into the two tables the solvers use
+(:class:`GamePayoffs`): the weighted unary ``U = α_a φ_u`` and the symmetrised pairwise
+``W[b, k, a, l, c] = w_b (φ_p(k, a, l, c) + φ_p(l, c, k, a))`` (``w_b`` = α_b or the mean
+weight), so that
 
     M_b(x) = Σ_k U[k, x_k] + ½ Σ_{k≠l} W[k, x_k, l, x_l],
     E_{Q_-k}[M_b | x_k] = U[k, x_k] + Σ_{l≠k} Σ_c Q_l(c) W[k, x_k, l, c] + const.
@@ -42,6 +47,7 @@ import numpy as np
 
 from swarmgames.arrays import freeze_fields
 from swarmgames.game.batch import LocalGameBatch
+from swarmgames.names import PAIR_WEIGHTINGS
 
 __all__ = [
     "FunctionPotentials",
@@ -50,6 +56,7 @@ __all__ = [
     "Potentials",
     "TablePotentials",
     "evaluate_payoffs",
+    "pair_weights",
 ]
 
 
@@ -70,10 +77,11 @@ class Potentials(Protocol):
     the batch has no ``pair_mask``), :func:`evaluate_payoffs` uses it instead of
     ``pairwise``: no ``(B, K, K, A, A)`` table, no transposed copies, half the peak memory.
 
-    Optional on-demand form, tried first: ``pair_source(batch, alpha_b, dtype) ->
+    Optional on-demand form, tried first: ``pair_source(batch, weights, dtype) ->
     PairSource`` (or ``None`` to fall back to the forms above), the weighted table W
-    computed per game where it is needed (:class:`PairSource`); the built-in coverage
-    potentials offer it for float32 tables.
+    computed per game where it is needed (:class:`PairSource`), with ``weights`` the
+    pairwise weight of every game, shape ``(B,)`` (:func:`pair_weights`); the built-in
+    coverage potentials offer it for float32 tables.
 
     Optional owner-only form: ``owner_unary(batch) -> (B, A)``, φ_u of every game's
     variable 0 alone, equal to ``unary(batch)[:, 0]`` bit for bit; the global regret, which
@@ -90,7 +98,9 @@ class Potentials(Protocol):
 class PairSource(Protocol):
     """The weighted, symmetrised pairwise table W of a batch, computed on demand.
 
-    ``W[b, k, a, l, c] = α_b (φ_p(k, a, l, c) + φ_p(l, c, k, a))`` in the layout and with the
+    ``W[b, k, a, l, c] = w_b (φ_p(k, a, l, c) + φ_p(l, c, k, a))``, ``w_b`` game b's pairwise
+    weight (:func:`pair_weights`: α_b unless the games are weighted by their size), in the
+    layout and with the
     zeros of :attr:`GamePayoffs.pair` (0 unless ``(k, l)`` is a pair of distinct valid
     variables and both actions are valid), finite, in the payoffs' dtype. Every game's values
     depend on that game only, and every method returns the same values for it.
@@ -263,6 +273,61 @@ def _check_empty_actions(batch: LocalGameBatch | GamePayoffs) -> None:
         raise ValueError(f"action set is empty for {_where(batch, b, k)}")
 
 
+def pair_weights(batch: LocalGameBatch, alpha_b: float, weighting: str = "sum") -> np.ndarray:
+    """The pairwise weight of every game of ``batch``, shape ``(B,)`` float64.
+
+    .. math:: w_b = \\alpha_b \\ (\\text{sum}), \\qquad
+        w_b = \\frac{\\alpha_b}{\\max(K_b - 1, 1)} \\ (\\text{mean}),
+
+    with :math:`K_b` the number of valid variables of game b (virtual and context robots
+    included). Eq. 1 sums the pairwise term over every pair of a local game, so a variable's
+    pairwise payoff grows with the size of its neighbourhood while its unary does not;
+    ``"mean"`` makes it α_b times the mean over its partners. Every pair of a game has the same
+    weight, so the game stays a potential game (best response still ends at a pure Nash
+    equilibrium).
+
+    Parameters
+    ----------
+    batch : LocalGameBatch
+    alpha_b : float
+        >= 0.
+    weighting : {"sum", "mean"}
+        :data:`~swarmgames.names.PAIR_WEIGHTINGS`.
+
+    Raises
+    ------
+    ValueError
+        An unknown ``weighting``, or ``"mean"`` on a batch with a ``pair_mask`` (whose
+        variables do not all pair with each other, so no single per-game mean exists).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swarmgames.game.batch import LocalGameBatch
+    >>> mask = np.array([[True, True, True], [True, False, False]])
+    >>> batch = LocalGameBatch(
+    ...     owner=np.array([0, 1]), members=np.where(mask, [[0, 1, 2], [1, 0, 0]], -1),
+    ...     mask=mask, states=np.zeros((2, 3, 2)), is_virtual=np.zeros((2, 3), bool),
+    ...     next_states=np.zeros((2, 3, 1, 2)), action_mask=mask[..., None])
+    >>> pair_weights(batch, 0.001, "mean").tolist()
+    [0.0005, 0.001]
+    """
+    if weighting not in PAIR_WEIGHTINGS:
+        raise ValueError(
+            f"pair_weighting must be one of {', '.join(map(repr, PAIR_WEIGHTINGS))} "
+            f"(got {weighting!r})"
+        )
+    if weighting == "sum":
+        return np.full(batch.n_games, float(alpha_b))
+    if batch.pair_mask is not None:
+        raise ValueError(
+            "pair_weighting 'mean' needs games whose variables all pair with each other "
+            "(this batch has a pair_mask, as the centralised game does)"
+        )
+    others = np.maximum(np.count_nonzero(batch.mask, axis=1) - 1, 1)
+    return float(alpha_b) / others
+
+
 def evaluate_payoffs(
     batch: LocalGameBatch,
     potentials: Potentials,
@@ -270,6 +335,7 @@ def evaluate_payoffs(
     alpha_b: float = 0.001,
     *,
     dtype=np.float64,
+    pair_weighting: str = "sum",
 ) -> GamePayoffs:
     """Evaluate ``potentials`` on ``batch`` and build the weighted tables of eq. 1.
 
@@ -282,6 +348,9 @@ def evaluate_payoffs(
     dtype : numpy dtype
         float64 (default) or float32; float32 halves the memory of the pairwise table, which is
         ``B K² A²`` values (648 MB in float64 for B = 10 000, K = 10, A = 9).
+    pair_weighting : {"sum", "mean"}
+        ``"sum"`` (eq. 1): every pair weighs α_b; ``"mean"``: α_b / (K_b − 1) in a game of
+        K_b variables (:func:`pair_weights`).
 
     Returns
     -------
@@ -302,6 +371,7 @@ def evaluate_payoffs(
     _check_empty_actions(batch)
     b, k, a = batch.n_games, batch.n_vars, batch.n_actions
     amask = batch.action_mask
+    weights = pair_weights(batch, alpha_b, pair_weighting)
 
     u = np.asarray(potentials.unary(batch))
     if u.shape != (b, k, a):
@@ -320,11 +390,11 @@ def evaluate_payoffs(
     table_fn = getattr(potentials, "pair_table", None)
     source_fn = getattr(potentials, "pair_source", None)
     if alpha_b > 0 and callable(source_fn) and batch.pair_mask is None:
-        source = source_fn(batch, alpha_b, dtype)
+        source = source_fn(batch, weights, dtype)
     if source is not None:
         p = None
     elif alpha_b > 0 and callable(table_fn) and batch.pair_mask is None:
-        pair = _symmetric_table(batch, table_fn, alpha_b, dtype)
+        pair = _symmetric_table(batch, table_fn, weights, dtype)
         p = None
     else:
         p = potentials.pairwise(batch) if alpha_b > 0 else None
@@ -352,7 +422,7 @@ def evaluate_payoffs(
             where=valid.transpose(0, 2, 4, 1, 3),
             casting="unsafe",
         )
-        pair *= dtype.type(alpha_b)
+        pair *= weights.astype(dtype)[:, None, None, None, None]
     return GamePayoffs(
         unary=unary,
         pair=pair,
@@ -381,9 +451,10 @@ def _check_pair_finite(
         )
 
 
-def _symmetric_table(batch: LocalGameBatch, table_fn, alpha_b: float, dtype) -> np.ndarray | None:
-    """``α_b`` times the table ``table_fn(batch, dtype)`` returns, already symmetrised and in
-    the solver's layout ``(B, K, A, K, A)``; 0 outside the valid entries."""
+def _symmetric_table(batch: LocalGameBatch, table_fn, weights, dtype) -> np.ndarray | None:
+    """The table ``table_fn(batch, dtype)`` returns, already symmetrised and in the solver's
+    layout ``(B, K, A, K, A)``, times each game's weight ``weights`` (B,); 0 outside the
+    valid entries."""
     b, k, a = batch.n_games, batch.n_vars, batch.n_actions
     w = table_fn(batch, dtype)
     if w is None:  # no pairwise term in this batch
@@ -397,7 +468,8 @@ def _symmetric_table(batch: LocalGameBatch, table_fn, alpha_b: float, dtype) -> 
     if own and np.isfinite(np.add.reduce(w, axis=None)):
         # All finite (a non-finite entry anywhere makes the sum non-finite): scale in place
         # by α_b times the validity of (k, a, l) and then of c, with no 5-D mask.
-        w *= np.where(vp[:, :, None, :, None] & amask[:, :, :, None, None], alpha_b, 0.0).astype(
+        per_game = weights[:, None, None, None, None]
+        w *= np.where(vp[:, :, None, :, None] & amask[:, :, :, None, None], per_game, 0.0).astype(
             dtype
         )
         w *= amask[:, None, None, :, :]
@@ -405,5 +477,6 @@ def _symmetric_table(batch: LocalGameBatch, table_fn, alpha_b: float, dtype) -> 
     valid = vp[:, :, None, :, None] & amask[:, :, :, None, None] & amask[:, None, None, :, :]
     _check_pair_finite(batch, w, valid, layout="bkalc")
     pair = np.zeros((b, k, a, k, a), dtype=dtype)
-    np.multiply(w, dtype.type(alpha_b), out=pair, where=valid, casting="unsafe")
+    per_game = weights.astype(dtype)[:, None, None, None, None]
+    np.multiply(w, per_game, out=pair, where=valid, casting="unsafe")
     return pair

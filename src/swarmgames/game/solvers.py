@@ -233,12 +233,21 @@ class _Base:
     alpha_a: float = 1.0
     alpha_b: float = 0.001
     dtype: str = "float64"
+    pair_weighting: str = "sum"
 
     name = "base"
 
     def evaluate(self, batch: LocalGameBatch, potentials: Potentials) -> GamePayoffs:
-        """The weighted payoff tables of ``batch`` under this solver's α_a, α_b and dtype."""
-        return evaluate_payoffs(batch, potentials, self.alpha_a, self.alpha_b, dtype=self.dtype)
+        """The weighted payoff tables of ``batch`` under this solver's α_a, α_b, pairwise
+        weighting and dtype."""
+        return evaluate_payoffs(
+            batch,
+            potentials,
+            self.alpha_a,
+            self.alpha_b,
+            dtype=self.dtype,
+            pair_weighting=self.pair_weighting,
+        )
 
     def solve(
         self,
@@ -388,7 +397,8 @@ def make_solver(name: str, **params) -> Solver:
     ----------
     name : {"mean_field", "exact", "best_response", "random"}
     **params
-        Fields of the solver's class: ``alpha_a``, ``alpha_b``, ``dtype`` for every solver;
+        Fields of the solver's class: ``alpha_a``, ``alpha_b``, ``dtype``, ``pair_weighting``
+        (:func:`~swarmgames.game.potentials.pair_weights`) for every solver;
         ``beta``, ``delta``, ``max_iter``, ``action_choice``, ``engine`` for mean-field;
         ``max_profiles`` for exact; ``max_iter`` for best response.
 

@@ -304,6 +304,23 @@ def _true_measures(rec: _Record, solver, messages, groups, action_model, potenti
     return integrate_s
 
 
+def _owner_rows(solver, batch: LocalGameBatch, potentials: Potentials) -> OwnerPayoffs:
+    """The owners' rows of ``solver.evaluate(batch, potentials)``, bit for bit, with only the
+    owners' unary evaluated where the solver states its weights
+    (:func:`~swarmgames.game.equilibrium.owner_payoffs`)."""
+    weights = ("alpha_a", "alpha_b", "dtype", "pair_weighting")
+    if not all(hasattr(solver, w) for w in weights):
+        return OwnerPayoffs.of(solver.evaluate(batch, potentials))
+    return owner_payoffs(
+        batch,
+        potentials,
+        solver.alpha_a,
+        solver.alpha_b,
+        dtype=solver.dtype,
+        pair_weighting=solver.pair_weighting,
+    )
+
+
 def _expost(rec: _Record, solver, messages, groups, next_states, action_model, potentials):
     """Ex-post regret of every robot (:mod:`swarmgames.game.expost`) at the realised actions
     ``rec.actions``, the others at ``next_states``, one batch's tables at a time; returns the
@@ -311,7 +328,7 @@ def _expost(rec: _Record, solver, messages, groups, next_states, action_model, p
     t0 = time.perf_counter()
     for owners in groups:
         batch = expost_games(messages.views(owners), next_states, action_model)
-        rows = OwnerPayoffs.of(solver.evaluate(batch, potentials))
+        rows = _owner_rows(solver, batch, potentials)
         rec.expost_regret[owners] = expost_regret(rows, rec.actions)
         del batch, rows
     return time.perf_counter() - t0
@@ -513,10 +530,7 @@ def _global_regret(rec: _Record, solver, messages, batches, action_model, potent
         batch = build_local_games(messages.views(owners), action_model, virtual_mean="off")
         # Only the owner's row is read: the others are held at their realised actions.
         batch = owner_deviations(batch, rec.actions)
-        if not all(hasattr(solver, w) for w in ("alpha_a", "alpha_b", "dtype")):
-            return global_regret(solver.evaluate(batch, potentials), rec.actions)
-        rows = owner_payoffs(batch, potentials, solver.alpha_a, solver.alpha_b, dtype=solver.dtype)
-        return global_regret(rows, rec.actions)
+        return global_regret(_owner_rows(solver, batch, potentials), rec.actions)
 
     for owners, redo, rows in batches:
         if rows is not None:
@@ -688,6 +702,8 @@ def stage_regret(
     joint_actions,
     alpha_a: float = 1.0,
     alpha_b: float = 0.001,
+    *,
+    pair_weighting: str = "sum",
 ) -> np.ndarray:
     """Global (stage-game) regret of every robot at the realised joint action.
 
@@ -702,5 +718,5 @@ def stage_regret(
         >= 0; 0 for every robot iff the joint action is a pure NE of the stage game.
     """
     batch = local_games(snapshot, h, states, action_model, virtual_mean="off")
-    payoffs = evaluate_payoffs(batch, potentials, alpha_a, alpha_b)
+    payoffs = evaluate_payoffs(batch, potentials, alpha_a, alpha_b, pair_weighting=pair_weighting)
     return global_regret(payoffs, joint_actions)

@@ -125,20 +125,11 @@ def member_columns(
     """
     members = np.asarray(members, dtype=np.int64)
     nbh = np.asarray(member_neighbourhoods, dtype=np.int64)
-    b = members.shape[0]
-    if b == 0 or nbh.size == 0:
+    if members.shape[0] == 0 or nbh.size == 0 or members.size == 0:
         return np.full(nbh.shape, -1, dtype=np.int64)
-    span = int(max(members.max(initial=0), nbh.max(initial=0))) + 2
-    # Each game's members, sorted, in its own band of ids, so that one searchsorted over the
-    # flattened array answers every "is l in N_i" at once.
-    key = np.where(mask, members, span - 1)
-    order = np.argsort(key, axis=1, kind="stable")
-    offset = (np.arange(b, dtype=np.int64) * span)[:, None]
-    flat = (np.take_along_axis(key, order, axis=1) + offset).ravel()
-    query = nbh + offset[:, :, None]
-    pos = np.minimum(np.searchsorted(flat, query), flat.size - 1)
-    found = (flat[pos] == query) & (nbh >= 0)
-    return np.where(found, order.ravel()[pos], -1)
+    from swarmgames.game.virtual_compiled import compiled_member_columns
+
+    return compiled_member_columns(members, mask, nbh)
 
 
 def reaches_outside(

@@ -40,7 +40,12 @@ def solver_from_config(game) -> Solver:
     """The solver a :class:`~swarmgames.config.GameConfig` names (``centralised`` is the
     mean-field solver on one swarm-wide game)."""
     name = "mean_field" if game.solver == "centralised" else game.solver
-    params = {"alpha_a": game.alpha_a, "alpha_b": game.alpha_b, "dtype": game.dtype}
+    params = {
+        "alpha_a": game.alpha_a,
+        "alpha_b": game.alpha_b,
+        "dtype": game.dtype,
+        "pair_weighting": game.pair_weighting,
+    }
     if name == "mean_field":
         params.update(
             beta=game.beta,

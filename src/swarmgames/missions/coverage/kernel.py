@@ -447,7 +447,7 @@ def _game_points(points, valid, b):
 
 @njit(cache=True, nogil=True, parallel=True)
 def _pair_tables(games, points, valid, scale, offset, d02, inv_sep, crowd, weight, out):
-    """W of ``games`` into ``out`` (G, K, A, K, A)."""
+    """W of ``games`` into ``out`` (G, K, A, K, A); ``weight`` is every game's weight (B,)."""
     n_k, n_a = valid.shape[1], valid.shape[2]
     n = n_k * n_a
     for g in prange(games.size):
@@ -460,7 +460,7 @@ def _pair_tables(games, points, valid, scale, offset, d02, inv_sep, crowd, weigh
             if vm[i] == 0.0:
                 w[i, :used] = 0.0
                 continue
-            _pair_row(px, py, pz, i, vm, used, scale, offset, d02, inv_sep, crowd, weight, w[i])
+            _pair_row(px, py, pz, i, vm, used, scale, offset, d02, inv_sep, crowd, weight[b], w[i])
             w[i, k * n_a : (k + 1) * n_a] = 0.0
 
 
@@ -479,7 +479,9 @@ def _pair_at(profile, points, valid, scale, offset, d02, inv_sep, crowd, weight,
             if vm[i] == 0.0:
                 row[:used] = 0.0
             else:
-                _pair_row(px, py, pz, i, vm, used, scale, offset, d02, inv_sep, crowd, weight, row)
+                _pair_row(
+                    px, py, pz, i, vm, used, scale, offset, d02, inv_sep, crowd, weight[b], row
+                )
             row[v * n_a : (v + 1) * n_a] = 0.0
 
 
@@ -488,17 +490,17 @@ class CoveragePairs:
     """The coverage pairwise table W on demand (a
     :class:`~swarmgames.game.potentials.PairSource`, float32).
 
-    .. math:: W[k, a, l, c] = \\alpha_b \\bigl(2 \\psi_R(d) - 2 c_{sep} m
+    .. math:: W[k, a, l, c] = w_b \\bigl(2 \\psi_R(d) - 2 c_{sep} m
         \\max(0, 1 - d / d_{sep})^2 / \\alpha_b^{pot}\\bigr), \\qquad
         d = \\lVert S_k(a) - S_l(c) \\rVert,
 
     for distinct valid variables and valid actions (0 elsewhere): the symmetrised eq. 6 plus
     the pairwise crowding penalty (``crowd`` = 0 when off) of
     :meth:`~swarmgames.missions.coverage.potentials.CoveragePotentials.pair_table` weighted
-    by the engine's :math:`\\alpha_b`, with its float32 arithmetic except that :math:`d^2`
-    is the direct sum of squared differences in float64 (not a Gram product), the logarithm
-    is :func:`log_f32` and the penalty is computed in float32: equal to it to float32
-    rounding (about 92 % of the entries bit for bit on a stage of 300 UAVs).
+    by the engine's pairwise weight :math:`w_b` of game b, with its float32 arithmetic
+    except that :math:`d^2` is the direct sum of squared differences in float64 (not a Gram
+    product), the logarithm is :func:`log_f32` and the penalty is computed in float32: equal
+    to it to float32 rounding (about 92 % of the entries bit for bit on a stage of 300 UAVs).
 
     Parameters
     ----------
@@ -512,8 +514,9 @@ class CoveragePairs:
         :math:`1 / d_{sep}`, 1/metres (any value when ``crowd`` is 0).
     crowd : numpy.float32
         :math:`2 c_{sep} m / \\alpha_b^{pot}` (0: no crowding penalty).
-    weight : numpy.float32
-        :math:`\\alpha_b` of the engine.
+    weight : ndarray of float32, shape (B,)
+        The engine's pairwise weight of every game, :math:`\\alpha_b` or
+        :math:`\\alpha_b / (K_b - 1)` (:func:`~swarmgames.game.potentials.pair_weights`).
     """
 
     points: np.ndarray
@@ -523,7 +526,7 @@ class CoveragePairs:
     d02: np.float32
     inv_sep: np.float32
     crowd: np.float32
-    weight: np.float32
+    weight: np.ndarray
 
     def _consts(self):
         return (self.scale, self.offset, self.d02, self.inv_sep, self.crowd, self.weight)
@@ -548,4 +551,6 @@ class CoveragePairs:
 
     def select(self, games) -> CoveragePairs:
         """The source of a subset of games."""
-        return replace(self, points=self.points[games], valid=self.valid[games])
+        return replace(
+            self, points=self.points[games], valid=self.valid[games], weight=self.weight[games]
+        )

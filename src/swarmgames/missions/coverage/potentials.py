@@ -420,8 +420,9 @@ class CoveragePotentials:
                 out[lo:hi, k0:k1] = np.where(ok, val, 0.0)
         return out
 
-    def pair_source(self, batch, alpha_b: float, dtype=np.float64):
-        """The engine's weighted table :math:`\\alpha_b \\times` :meth:`pair_table`, on
+    def pair_source(self, batch, weights, dtype=np.float64):
+        """The engine's weighted table :math:`w_b \\times` :meth:`pair_table` (``weights``:
+        each game's pairwise weight :math:`w_b`, shape (B,), or one α_b for all), on
         demand (:class:`~swarmgames.missions.coverage.kernel.CoveragePairs`: computed per
         chunk of games inside the compiled mean-field solve and at the measured profiles,
         never for the whole batch), for float32 tables with the compiled kernel; None
@@ -446,7 +447,9 @@ class CoveragePotentials:
             crowd=np.float32(
                 2.0 * self.separation_cost_db * self.roi.mass / self.alpha_b if crowd else 0.0
             ),
-            weight=np.float32(alpha_b),
+            weight=np.ascontiguousarray(
+                np.broadcast_to(np.asarray(weights, dtype=np.float32), mask.shape[:1])
+            ),
         )
 
     def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
