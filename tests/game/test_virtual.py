@@ -255,14 +255,14 @@ def test_member_columns_match_a_search_per_entry(seed):
     from swarmgames.game.virtual import member_columns
 
     rng = np.random.default_rng(seed)
-    b, k, l, n = 17, 9, 13, 40
+    b, k, width, n = 17, 9, 13, 40
     members = np.full((b, k), -1)
     for g in range(b):
         m = rng.integers(1, k + 1)
         members[g, :m] = rng.choice(n, size=m, replace=False)
     mask = members >= 0
-    nbh = np.where(rng.random((b, k, l)) < 0.7, rng.integers(0, n + 5, (b, k, l)), -1)
+    nbh = np.where(rng.random((b, k, width)) < 0.7, rng.integers(0, n + 5, (b, k, width)), -1)
     got = member_columns(members, mask, nbh)
-    for g, j, e in np.ndindex(b, k, l):
+    for g, j, e in np.ndindex(b, k, width):
         cols = [c for c in range(k) if mask[g, c] and members[g, c] == nbh[g, j, e]]
         assert got[g, j, e] == (cols[0] if cols and nbh[g, j, e] >= 0 else -1)

@@ -222,24 +222,46 @@ class CoveragePotentials:
         amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
         states = np.asarray(batch.states, dtype=float)[..., :3]
         nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
-        B, K, A = amask.shape
-        out = np.zeros((B, K, A))
-        if B == 0:
+        if amask.shape[0] == 0:
             self.last_integrate_s = time.perf_counter() - t0
-            return out
-        if self.signal_floor_dbm is not None:
-            ids = None
-            members, virtual = getattr(batch, "members", None), getattr(batch, "is_virtual", None)
-            if members is not None and virtual is not None:
-                ids = 2 * np.asarray(members, dtype=np.int64) + np.asarray(virtual, dtype=bool)
-            out = self._windowed(mask, amask, states, nxt, ids)
-        else:
-            self._full_grid(out, mask, amask, states, nxt)
+            return np.zeros(amask.shape)
+        ids = None
+        members, virtual = getattr(batch, "members", None), getattr(batch, "is_virtual", None)
+        if members is not None and virtual is not None:
+            ids = 2 * np.asarray(members, dtype=np.int64) + np.asarray(virtual, dtype=bool)
         if self._crowding_on and self.separation_mode == "unary":
+            # The crowding sum runs in the order of the game's variables: no sharing.
+            out = self._integral(mask, amask, states, nxt, ids)
             out -= self._crowding(mask, states, nxt)
+        else:
+            out = self._shared_integral(mask, amask, states, nxt, ids)
         out[~amask] = 0.0
         self.last_integrate_s = time.perf_counter() - t0
         return out
+
+    def _integral(self, mask, amask, states, nxt, ids, rows=None) -> np.ndarray:
+        """Eq. 5's integral of every game, variable and action, (B, K, A): over each
+        variable's window of cells (``signal_floor_dbm`` set) or over the whole grid;
+        ``rows`` (B, K) bool: only those variables (the windowed kernel; others 0)."""
+        if self.signal_floor_dbm is not None:
+            return self._windowed(mask, amask, states, nxt, ids, rows=rows)
+        out = np.zeros(amask.shape)
+        self._full_grid(out, mask, amask, states, nxt)
+        return out
+
+    def _shared_integral(self, mask, amask, states, nxt, ids, rows=None) -> np.ndarray:
+        """:meth:`_integral`, computed once for every group of games that hold the same
+        robots in the same states (:mod:`~swarmgames.missions.coverage.distinct`: the
+        integral does not depend on the order of a game's variables), bit for bit."""
+        from swarmgames.missions.coverage.distinct import distinct_games
+
+        same = None if ids is None else distinct_games(ids, mask, states, nxt, amask)
+        if same is None:
+            return self._integral(mask, amask, states, nxt, ids, rows)
+        g = same.games
+        sub_rows = None if rows is None else same.rows(rows)
+        part = self._integral(mask[g], amask[g], states[g], nxt[g], ids[g], sub_rows)
+        return same.expand(part)
 
     def owner_unary(self, batch) -> np.ndarray:
         """:math:`\\phi_u` of every game's variable 0 only, (B, A): ``unary(batch)[:, 0]``
@@ -258,7 +280,7 @@ class CoveragePotentials:
         ids = 2 * np.asarray(batch.members, dtype=np.int64) + np.asarray(batch.is_virtual, bool)
         owner = np.zeros(mask.shape, dtype=bool)
         owner[:, 0] = True
-        out = self._windowed(mask, amask, states, nxt, ids, rows=owner)[:, 0]
+        out = self._shared_integral(mask, amask, states, nxt, ids, rows=owner)[:, 0]
         out[~amask[:, 0]] = 0.0
         return out
 

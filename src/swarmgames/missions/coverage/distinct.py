@@ -1,0 +1,116 @@
+"""Local games that hold the same robots in the same states: their unary is computed once.
+
+The coverage unary of a variable (eq. 5) depends on its own state and next states and on the
+*set* of the other variables' states: the others enter through the best signal at each cell,
+a maximum, which does not depend on their order. Two games whose valid variables are the same
+(robot, virtual flag, state, next states, valid actions) up to order therefore give every
+shared variable the same unary row, bit for bit. That is the dense swarm's case: when every
+robot hears every other with exact delivery, all N local games hold all N robots, and
+computing the unary once instead of N times removes a factor N from the stage's largest cost
+(docs/bench.md, "No cliffs").
+
+:func:`distinct_games` finds such games from the variables' slots
+(:func:`~swarmgames.missions.coverage.window.shared_rows`: equal ids *and* equal values) and
+returns the games to compute and how to copy their rows back. A batch without repeated games
+(a spread swarm, or routed delivery where every inbox differs) costs one sort of the member
+ids per game and is computed as before.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from swarmgames.missions.coverage.window import shared_rows
+
+__all__ = ["DistinctGames", "distinct_games"]
+
+
+@dataclass(frozen=True)
+class DistinctGames:
+    """Which games of a batch to compute, and where each game's rows come from.
+
+    Attributes
+    ----------
+    games : ndarray of int64, shape (R,)
+        One game of every group of equal games (the first), increasing.
+    source : ndarray of int64, shape (B, K)
+        ``source[b, k]`` is the row of ``games`` × K (flat index ``r * K + k'``) whose values
+        variable ``k`` of game ``b`` takes; -1 at padding.
+    """
+
+    games: np.ndarray
+    source: np.ndarray
+
+    def rows(self, wanted: np.ndarray) -> np.ndarray:
+        """The rows of the computed games that ``wanted`` (B, K) bool needs, (R, K) bool."""
+        out = np.zeros(self.games.size * self.source.shape[1], dtype=bool)
+        out[self.source[wanted & (self.source >= 0)]] = True
+        return out.reshape(self.games.size, self.source.shape[1])
+
+    def expand(self, values: np.ndarray, fill: float = 0.0) -> np.ndarray:
+        """Every game's rows, (B, K, ...), from ``values`` (R, K, ...) of the computed games."""
+        flat = values.reshape(self.games.size * values.shape[1], *values.shape[2:])
+        out = flat[np.maximum(self.source, 0)]
+        out[self.source < 0] = fill
+        return out
+
+
+def distinct_games(ids: np.ndarray, mask: np.ndarray, *values: np.ndarray) -> DistinctGames | None:
+    """The games of a batch that are repeats of an earlier one, up to the order of their
+    variables; ``None`` when there is none.
+
+    Parameters
+    ----------
+    ids : ndarray of int, shape (B, K)
+        Which robot each variable is (for example ``2 * member + is_virtual``), any value at
+        padding.
+    mask : ndarray of bool, shape (B, K)
+        Valid variables.
+    *values : ndarray, shape (B, K, ...)
+        What must be equal as well (states, next states, valid actions).
+
+    Returns
+    -------
+    DistinctGames or None
+
+    Examples
+    --------
+    Games 0 and 2 hold robots 5 and 7 at the same states, in another order:
+
+    >>> ids = np.array([[5, 7], [5, 8], [7, 5]])
+    >>> states = np.array([[[0.0], [1.0]], [[0.0], [2.0]], [[1.0], [0.0]]])
+    >>> d = distinct_games(ids, np.ones((3, 2), bool), states)
+    >>> d.games.tolist(), d.source.tolist()
+    ([0, 1], [[0, 1], [2, 3], [1, 0]])
+    """
+    mask = np.asarray(mask, dtype=bool)
+    b, k = mask.shape
+    if b < 2:
+        return None
+    ids = np.where(mask, np.asarray(ids, dtype=np.int64), -1)
+    # Equal games hold equal sets of ids: without a repeated set there is nothing to share.
+    if np.unique(np.sort(ids, axis=1), axis=0).shape[0] == b:
+        return None
+    rb, rk = np.nonzero(mask)
+    slot = np.full((b, k), -1, dtype=np.int64)
+    slot[rb, rk] = shared_rows(ids[rb, rk], *(np.asarray(v)[rb, rk] for v in values))[0]
+    order = np.argsort(np.where(mask, slot, np.iinfo(np.int64).max), axis=1, kind="stable")
+    key = np.take_along_axis(slot, order, axis=1)
+    _, first, group = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    group = group.reshape(-1)
+    if first.size == b:
+        return None
+    games = np.sort(first).astype(np.int64)
+    rank = np.empty(b, dtype=np.int64)
+    rank[games] = np.arange(games.size)
+    rep = rank[first[group]]  # the computed game of every game's group
+    # Variable order[b, c] of game b holds the same slot as variable order[rep, c] of its
+    # group's computed game.
+    rep_order = order[games][rep]
+    source = np.full((b, k), -1, dtype=np.int64)
+    rows = np.arange(b)[:, None]
+    source[rows, order] = rep[:, None] * k + rep_order
+    source[~mask] = -1
+    return DistinctGames(games=games, source=source)
