@@ -138,7 +138,28 @@ def _solve_serial(logits, w, nv, has_pair, beta, delta, max_iter, q, its, kls):
 
 
 PARALLEL_MIN_GAMES = 8
-"""Batches with fewer games run on the calling thread (a thread-pool launch costs more)."""
+"""Batches with fewer games run on the calling thread (a thread-pool launch costs more),
+unless their games are large (:data:`PARALLEL_MIN_ENTRIES`)."""
+
+PARALLEL_MIN_ENTRIES = 1_000_000
+"""A batch of at least two games whose pairwise tables hold this many entries in all runs on
+the thread pool however few its games: a sweep over them costs far more than the launch
+(dense swarms, whose batches hold a few games of hundreds of variables each)."""
+
+
+def in_parallel(n_games: int, entries_per_game: int) -> bool:
+    """Whether a batch of ``n_games`` games of ``entries_per_game`` pairwise entries each
+    (K² A²) is spread over the thread pool. Each game runs on one thread either way, so the
+    results are the same bit for bit.
+
+    Examples
+    --------
+    >>> in_parallel(8, 100), in_parallel(3, 100), in_parallel(3, 2700**2), in_parallel(1, 10**9)
+    (True, False, True, False)
+    """
+    if n_games >= PARALLEL_MIN_GAMES:
+        return True
+    return n_games >= 2 and n_games * entries_per_game >= PARALLEL_MIN_ENTRIES
 
 
 def solve_batch(
@@ -190,7 +211,7 @@ def solve_batch(
         its,
         kls,
     )
-    if b < PARALLEL_MIN_GAMES:
+    if not in_parallel(b, (k_vars * a) ** 2 if has_pair else 0):
         _solve_serial(*args)
     else:
         with POOL_LOCK:

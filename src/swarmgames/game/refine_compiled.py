@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from swarmgames.game.meanfield_compiled import PARALLEL_MIN_GAMES, POOL_LOCK
+from swarmgames.game.meanfield_compiled import POOL_LOCK, in_parallel
 
 __all__ = ["compiled_sweeps"]
 
@@ -137,7 +137,7 @@ def compiled_sweeps(
         sweeps,
         moves,
     )
-    if n < PARALLEL_MIN_GAMES:
+    if not in_parallel(n, u[0].size ** 2 if has_pair else 0):
         _sweep_serial(*args)
     else:
         with POOL_LOCK:

@@ -100,6 +100,9 @@ def _run_chunks(fn, starts, workers: int) -> None:
 #: Largest N x G signal field the coverage metric evaluates densely (bigger: a KD-tree query).
 _DENSE_METRIC_ELEMS = 20_000_000
 
+#: Largest signal field (bytes) the full-grid unary keeps from one batch to the next.
+_KEPT_FIELD_BYTES = 64 * 2**20
+
 
 @dataclass(eq=False)
 class CoveragePotentials:
@@ -173,6 +176,7 @@ class CoveragePotentials:
     kernel: str = "auto"
     last_integrate_s: float = field(default=0.0, init=False)
     _raster: RoiRaster | None = field(default=None, init=False, repr=False)
+    _last_fields: tuple | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.separation_mode not in ("pairwise", "unary"):
@@ -331,7 +335,7 @@ class CoveragePotentials:
         nxt_rows = np.where(amask[..., None], nxt, 0.0).reshape(-1, 3)
         uniq, inv = np.unique(np.concatenate([cur_rows, nxt_rows]), axis=0, return_inverse=True)
         inv = inv.reshape(-1)
-        fields = self.signal.field(uniq, self.roi.points)  # (U, G) float32
+        fields = self._fields(uniq)  # (U, G) float32
         cur_idx = inv[: B * K].reshape(B, K)
         nxt_idx = inv[B * K :].reshape(B, K, A)
         w = self.roi.weights.astype(np.float32)
@@ -360,6 +364,20 @@ class CoveragePotentials:
                     tau = np.float32(self.softness_db)
                     val += tau * np.log1p(np.exp(-np.abs(f - o) / tau))
                 out[lo:hi, k0:k1] = val @ w
+
+    def _fields(self, positions: np.ndarray) -> np.ndarray:
+        """The signal of every position at every ROI cell, (U, G) float32; the last batch's
+        fields (up to ``_KEPT_FIELD_BYTES``) are kept and given back for the same positions
+        (a stage's batches of a dense swarm hold the same robots: one field instead of one
+        per batch)."""
+        key = positions.tobytes()
+        held = self._last_fields
+        if held is not None and held[0] == key:
+            return held[1]
+        fields = self.signal.field(positions, self.roi.points)
+        fields.flags.writeable = False
+        self._last_fields = (key, fields) if fields.nbytes <= _KEPT_FIELD_BYTES else None
+        return fields
 
     def _crowding(self, mask, states, nxt) -> np.ndarray:
         """Separation penalty of every next state against the others' current states,
