@@ -51,7 +51,6 @@ from swarmgames.game.equilibrium import (
     global_regret,
     local_regret,
     owner_deviations,
-    owner_payoffs,
     profile_payoff,
 )
 from swarmgames.game.expost import expost_games, expost_regret
@@ -305,20 +304,13 @@ def _true_measures(rec: _Record, solver, messages, groups, action_model, potenti
 
 
 def _owner_rows(solver, batch: LocalGameBatch, potentials: Potentials) -> OwnerPayoffs:
-    """The owners' rows of ``solver.evaluate(batch, potentials)``, bit for bit, with only the
-    owners' unary evaluated where the solver states its weights
-    (:func:`~swarmgames.game.equilibrium.owner_payoffs`)."""
-    weights = ("alpha_a", "alpha_b", "dtype", "pair_weighting")
-    if not all(hasattr(solver, w) for w in weights):
-        return OwnerPayoffs.of(solver.evaluate(batch, potentials))
-    return owner_payoffs(
-        batch,
-        potentials,
-        solver.alpha_a,
-        solver.alpha_b,
-        dtype=solver.dtype,
-        pair_weighting=solver.pair_weighting,
-    )
+    """The owners' rows of ``solver.evaluate(batch, potentials)``, bit for bit: the
+    solver's ``evaluate_owners`` where it has one (the built-in solvers), else the whole
+    evaluation's rows."""
+    owners_fn = getattr(solver, "evaluate_owners", None)
+    if callable(owners_fn):
+        return owners_fn(batch, potentials)
+    return OwnerPayoffs.of(solver.evaluate(batch, potentials))
 
 
 def _expost(rec: _Record, solver, messages, groups, next_states, action_model, potentials):
