@@ -139,11 +139,8 @@ def reaches_outside(
 
     Parameters
     ----------
-    members : ndarray of int, shape (B, K)
-        Robot ids of the local game's variables (N_i), ``-1`` at padding.
-    mask : ndarray of bool, shape (B, K)
-    member_neighbourhoods : ndarray of int, shape (B, K, L)
-        N_j as reported by each member j, ``-1`` padded.
+    members, mask, member_neighbourhoods
+        As :func:`member_columns`.
 
     Returns
     -------

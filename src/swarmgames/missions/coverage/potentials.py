@@ -104,6 +104,16 @@ _DENSE_METRIC_ELEMS = 20_000_000
 _KEPT_FIELD_BYTES = 64 * 2**20
 
 
+def _state_ids(batch) -> np.ndarray | None:
+    """``2 * member + is_virtual`` of every variable, (B, K): which variables of a batch
+    should hold the same state (a robot, or its virtual mean); None for a batch without
+    member ids."""
+    members, virtual = getattr(batch, "members", None), getattr(batch, "is_virtual", None)
+    if members is None or virtual is None:
+        return None
+    return 2 * np.asarray(members, dtype=np.int64) + np.asarray(virtual, dtype=bool)
+
+
 @dataclass(eq=False)
 class CoveragePotentials:
     """Unary (eq. 5) and pairwise (eq. 6) potentials of the coverage mission.
@@ -229,10 +239,7 @@ class CoveragePotentials:
         if amask.shape[0] == 0:
             self.last_integrate_s = time.perf_counter() - t0
             return np.zeros(amask.shape)
-        ids = None
-        members, virtual = getattr(batch, "members", None), getattr(batch, "is_virtual", None)
-        if members is not None and virtual is not None:
-            ids = 2 * np.asarray(members, dtype=np.int64) + np.asarray(virtual, dtype=bool)
+        ids = _state_ids(batch)
         if self._crowding_on and self.separation_mode == "unary":
             # The crowding sum runs in the order of the game's variables: no sharing.
             out = self._integral(mask, amask, states, nxt, ids)
@@ -281,7 +288,7 @@ class CoveragePotentials:
         nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
         if amask.shape[0] == 0:
             return np.zeros(amask.shape[::2])
-        ids = 2 * np.asarray(batch.members, dtype=np.int64) + np.asarray(batch.is_virtual, bool)
+        ids = _state_ids(batch)
         owner = np.zeros(mask.shape, dtype=bool)
         owner[:, 0] = True
         out = self._shared_integral(mask, amask, states, nxt, ids, rows=owner)[:, 0]
