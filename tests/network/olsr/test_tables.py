@@ -62,3 +62,16 @@ def test_upsert_of_sorted_new_keys_merges_them_as_the_general_path_does():
     for c in ("a", "b"):
         np.testing.assert_array_equal(merged.cols[c], general.cols[c])
     assert np.isneginf(merged.get("b", new)).all()
+
+
+@pytest.mark.parametrize("span", [1_000, 50_000, 20_000_000])
+def test_sorted_contains_dense_and_binary_search_agree(span):
+    """The flag-array path (keys spanning at most DENSE_LIMIT values, a large query) and
+    the binary search give the same mask, queries outside the keys' span included."""
+    rng = np.random.default_rng(span)
+    keys = np.unique(rng.integers(0, span, 500))
+    query = rng.integers(-10, span + 10, 20_000)
+    query[:3] = [keys[0], keys[-1], keys[-1] + 1]
+    expect = np.isin(query, keys)
+    assert np.array_equal(sorted_contains(keys, query), expect)
+    assert np.array_equal(sorted_contains(keys, query[:5]), expect[:5])  # a small query

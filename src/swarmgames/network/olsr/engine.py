@@ -332,11 +332,10 @@ class OlsrEngine:
         sym_ok = self.links.cols["sym"] > clock[owner]
         s_owner, s_neigh = owner[sym_ok], lk[sym_ok] % n
         s_created = self.links.cols["created"][sym_ok]
-        tk = self.two_hop.keys
-        t_owner = tk // (n * n)
+        t_owner, rest = np.divmod(self.two_hop.keys, n * n)
         th_ok = self.two_hop.cols["expiry"] > clock[t_owner]
-        t_owner, rest = t_owner[th_ok], tk[th_ok] % (n * n)
-        t_neigh, t_x = rest // n, rest % n
+        t_owner, rest = t_owner[th_ok], rest[th_ok]
+        t_neigh, t_x = np.divmod(rest, n)
         return s_owner, s_neigh, s_created, t_owner, t_neigh, t_x
 
     def routes(self, t: float | None = None, max_hops: int | None = None):

@@ -146,10 +146,19 @@ def first_per_key(keys: np.ndarray, size: int, order: np.ndarray | None = None) 
 
 
 def sorted_contains(sorted_keys: np.ndarray, query: np.ndarray) -> np.ndarray:
-    """Mask of the ``query`` values present in the ascending array ``sorted_keys`` (a binary
-    search per query: cheaper than ``np.isin`` when the sorted side is reused or large)."""
+    """Mask of the ``query`` values present in the ascending array ``sorted_keys`` of
+    non-negative keys: a lookup in a dense membership array when the keys span at most
+    :data:`DENSE_LIMIT` values and the query is not much smaller than that span (a dense
+    swarm's 2-hop triples against its links), a binary search per query otherwise (cheaper
+    than ``np.isin`` when the sorted side is reused or large). Both give the same mask."""
     query = np.asarray(query)
     if sorted_keys.size == 0:
         return np.zeros(query.shape, dtype=bool)
+    top = int(sorted_keys[-1]) + 1
+    if top <= DENSE_LIMIT and top <= 16 * query.size:
+        member = np.zeros(top, dtype=bool)
+        member[sorted_keys] = True
+        inside = (query >= 0) & (query < top)
+        return member[np.where(inside, query, 0)] & inside
     idx = np.minimum(np.searchsorted(sorted_keys, query), sorted_keys.size - 1)
     return sorted_keys[idx] == query
