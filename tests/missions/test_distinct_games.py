@@ -71,3 +71,82 @@ def test_games_with_other_robots_or_states_are_not_shared():
     assert d.source[1].tolist() == [1, 0, -1]
     states[1, 0, 0] = 0.5  # robot 2 seen elsewhere in game 1: no longer the same game
     assert distinct_games(ids, mask, states) is None
+
+
+def _source(batch, pot):
+    from swarmgames.game.potentials import pair_weights
+
+    return pot.pair_source(batch, pair_weights(batch, 1e-3, "mean"), np.float32)
+
+
+@pytest.mark.parametrize("moved", [False, True])
+def test_ranked_pair_tables_are_the_tables_reordered_and_shared_bit_for_bit(moved):
+    batch, pot = _dense(9, -100.0, "compiled")
+    if moved:
+        batch = _moved(batch, 4)
+    src = _source(batch, pot)
+    head, rank = src.shared()
+    assert head.tolist() == ([0, 0, 0, 0, 4, 0, 0, 0, 0] if moved else [0] * 9)
+    own = src.table(np.arange(9))
+    ranked = src.ranked_table(np.arange(9))
+    for b in range(9):
+        order = np.argsort(rank[b])
+        assert np.array_equal(ranked[b], own[b][order][:, :, order])
+        assert np.array_equal(ranked[b], ranked[head[b]])
+    # Ranked by robot: the variable of robot m holds rank m in every game.
+    assert np.array_equal(np.take_along_axis(np.asarray(batch.members), np.argsort(rank), 1),
+                          np.tile(np.arange(9), (9, 1)))  # fmt: skip
+
+
+def test_dense_games_solve_alike_alone_and_on_their_shared_table():
+    from swarmgames.game import evaluate_payoffs, mean_field
+
+    batch, pot = _dense(12, -100.0, "compiled")
+    pay = evaluate_payoffs(batch, pot, 1.0, 1e-3, dtype=np.float32, pair_weighting="mean")
+    assert pay.pair_source is not None
+    together = mean_field(pay, 50.0, engine="compiled")
+    for b in range(batch.n_games):
+        alone = mean_field(pay.select([b]), 50.0, engine="compiled")
+        assert np.array_equal(alone.marginals[0], together.marginals[b])
+    # And to float32 rounding as on the held tables (each game's own order).
+    held = evaluate_payoffs(batch, pot, 1.0, 1e-3, dtype=np.float32, pair_weighting="mean")
+    held = type(held)(held.unary, held.pair_table(), held.action_mask, held.mask, held.owner,
+                      held.members)  # fmt: skip
+    np.testing.assert_allclose(mean_field(held, 50.0).marginals, together.marginals, atol=1e-4)
+
+
+def test_dense_stage_results_do_not_depend_on_its_batches():
+    """With tables on demand, games holding the same robots share ranked tables inside a
+    batch; the games' results must not depend on which games are batched together."""
+    from swarmgames.game import make_solver, solve_stage
+
+    batch, pot = _dense(16, -100.0, "compiled")
+    states = np.asarray(batch.states)[0, np.argsort(np.asarray(batch.members)[0])]
+    mission = build(parse_config({"swarm": {"n_robots": 16}}))
+    snap = disk_snapshot(states[:, :2], 1000.0)
+    solver = make_solver("mean_field", dtype="float32", engine="compiled")
+    runs = [
+        solve_stage(solver, snap, 1, states, mission.action_model, pot, 0, buckets=b)
+        for b in (1, 5)
+    ]
+    for field in ("actions", "payoff", "local_regret", "global_regret", "iterations"):
+        assert np.array_equal(getattr(runs[0], field), getattr(runs[1], field)), field
+
+
+@pytest.mark.parametrize("moved", [False, True])
+@pytest.mark.parametrize("crowding", [0.0, 3.0])
+def test_shared_float64_pair_tables_equal_each_game_alone(moved, crowding):
+    cov = {"move_cost_db": 0.0, "separation_m": 30.0, "separation_cost_db": crowding}
+    mission = build(parse_config({"swarm": {"n_robots": 9}, "coverage": cov}))
+    pos = np.random.default_rng(1).uniform(-40, 40, size=(9, 2))
+    states = np.column_stack([pos, np.full(9, 50.0)])
+    batch = local_games(disk_snapshot(pos, 1000.0), 1, states, mission.action_model)
+    pot = mission.potentials
+    if moved:
+        batch = _moved(batch, 4)
+    shared = pot.pair_table(batch, np.float64)
+    valid = np.asarray(batch.action_mask) & np.asarray(batch.mask)[..., None]
+    for b in range(batch.n_games):
+        alone = pot.pair_table(batch.select([b]), np.float64)[0]
+        ok = valid[b][:, :, None, None] & valid[b][None, None, :, :]
+        assert np.array_equal(shared[b][ok], alone[ok])

@@ -31,7 +31,10 @@ and ratios measured in the same run:
   swarm.n_robots=300``: the take-off disc grown for the swarm, no signal floor, float64), its
   traced peak memory next to the estimate of :mod:`swarmgames.sim.memory`; and, unless
   ``quick``, the dense case: the same robots on the 25 m disc, every one within range of
-  every other (``dense``: K = N).
+  every other (``dense``: K = N);
+* ``dense_stage`` — unless ``quick``, the ``stage`` benchmark's scenario (float32, signal
+  floor) for the same robots on a ROI of :data:`DENSE_AREA_M2` per UAV, every one within
+  range of every other: the target's dense stage, with the parts of a ``stage`` record.
 * ``mission`` — a whole run of the ``coverage-large`` preset (1 000 UAVs, 60 stages) with
   every output, split into the stage loop and the outputs, and its in-run stage against the
   ``stage`` record of the same N (:mod:`swarmgames.bench.mission`; not ``quick``);
@@ -88,18 +91,18 @@ class Target:
     unit: str
     n_robots: int | None = None
     min_n: int = 0
-    dense: bool | None = None
 
 
 #: The targets of issue 14 (stage cost, growth, memory, the comms layer's share). The dense
-#: stage (300 UAVs all within range) is the ``takeoff`` record with ``dense`` (not ``--quick``).
+#: stage (300 UAVs all within range) is the ``dense_stage`` record (not ``--quick``): the
+#: ``stage`` benchmark's scenario, float32, on a small ROI.
 TARGETS = (
     Target("stage at N = 1 000", "stage", "median_s", 0.12, "s", n_robots=1_000),
     Target("stage at N = 10 000", "stage", "median_s", 1.2, "s", n_robots=10_000),
     Target("slope, N = 100 ... 10 000", "slope", "value", 1.05, ""),
     Target("peak memory at N = 10 000", "stage", "peak_mb", 1024.0, "MiB", n_robots=10_000),
-    Target("dense stage (300 UAVs, K = 300)", "takeoff", "median_s", 2.0, "s", dense=True),
-    Target("dense stage memory", "takeoff", "peak_mb", 2048.0, "MiB", dense=True),
+    Target("dense stage (300 UAVs, K = 300)", "dense_stage", "median_s", 2.0, "s"),
+    Target("dense stage memory", "dense_stage", "peak_mb", 2048.0, "MiB"),
     Target("routed comms share of a stage", "routed_comms", "share_of_stage", 0.15, "", min_n=100),
     Target(
         "whole mission (1 000 UAVs, 60 stages, every output)",
@@ -235,6 +238,15 @@ class BenchResult:
                 f"{r['neighbours_mean'] + 1:.0f}): {_fmt_s(r['median_s'])} per stage, peak "
                 f"{r['peak_mb']:.0f} MiB traced (estimate {r['estimate_mb']:.0f} MiB)"
             )
+        for r in self._of("dense_stage"):
+            notes.append(
+                f"dense stage, N = {r['n_robots']:,} within range (K ≈ "
+                f"{r['neighbours_mean'] + 1:.0f}, float32): {_fmt_s(r['median_s'])} = advance "
+                f"{_fmt_s(r['advance_s'])} + unary {_fmt_s(r['integrate_s'])} + solve "
+                f"{_fmt_s(r['solve_s'])} + the rest; {r['sweeps_mean']:.0f} sweeps per game, "
+                f"{r['ratio_to_physical']:.2f} of the physical estimate; peak "
+                f"{r['peak_mb']:.0f} MiB traced"
+            )
         for r in self._of("mission"):
             vs = f", {r['stage_vs_bench']:.1f}x the bench's" if "stage_vs_bench" in r else ""
             notes.append(
@@ -319,8 +331,6 @@ def _targets(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
         for r in records:
             if r["benchmark"] != tg.benchmark or tg.field not in r:
                 continue
-            if tg.dense is not None and bool(r.get("dense", False)) != tg.dense:
-                continue
             n = r.get("n_robots")
             if (tg.n_robots is not None and n != tg.n_robots) or (n or 0) < tg.min_n:
                 continue
@@ -371,11 +381,14 @@ def _say(progress: bool, msg: str) -> None:
         Console(stderr=True).print(f"[dim]bench[/dim] {msg}")
 
 
-def _stage_records(n: int, repeats: int, seed: int, workers: int) -> tuple[list[dict], StageBench]:
-    """Time ``repeats`` stages at N = ``n`` (the first, untimed stage measures memory)."""
+def _stage_records(
+    n: int, repeats: int, seed: int, workers: int, config=None
+) -> tuple[list[dict], StageBench]:
+    """Time ``repeats`` stages at N = ``n`` (the first, untimed stage measures memory), of
+    the constant-density scenario or of ``config``."""
     tracemalloc.start()
     try:
-        sb = StageBench(n, seed=seed, workers=workers)
+        sb = StageBench(n, config=config, seed=seed, workers=workers)
         t0 = time.perf_counter()
         sb.step()
         first_s = time.perf_counter() - t0
@@ -443,6 +456,22 @@ def _stage_records(n: int, repeats: int, seed: int, workers: int) -> tuple[list[
 
 #: Robots of the take-off benchmarks, and the stages timed (after the measured one).
 TAKEOFF_ROBOTS, TAKEOFF_REPEATS = 300, 2
+
+#: ROI area per UAV of the dense stage, m²: N = 300 UAVs take off from the ROI's disc of
+#: 338 m across (``swarm.start_max_neighbours = 0``: not grown for the swarm), less than the
+#: 368.84 m radio range, so every UAV is within range of every other.
+DENSE_AREA_M2 = 300.0
+
+
+def _dense_stage_record(n: int, seed: int, workers: int) -> dict:
+    """The ``stage`` benchmark's scenario (float32, signal floor) with every UAV within
+    range of every other (:data:`DENSE_AREA_M2`): one untimed stage, then one timed."""
+    from swarmgames.config import scaled_config
+
+    cfg = scaled_config(n, area_per_robot_m2=DENSE_AREA_M2, workers=workers)
+    cfg = cfg.with_overrides({"swarm.start_max_neighbours": 0})  # the disc is not grown
+    rec = _stage_records(n, 1, seed, workers, config=cfg)[0][0]
+    return {**rec, "benchmark": "dense_stage", "area_per_robot_m2": DENSE_AREA_M2}
 
 
 def _takeoff_record(n: int, dense: bool, repeats: int, seed: int) -> dict:
@@ -812,6 +841,11 @@ def run_suite(
         rec = _takeoff_record(takeoff, crowded, 0 if crowded else TAKEOFF_REPEATS, seed)
         records.append(rec)
         _say(progress, f"  {_fmt_s(rec['median_s'])} per stage, peak {rec['peak_mb']:.0f} MiB")
+        if crowded:
+            _say(progress, f"dense stage, N = {takeoff:,} within range (float32, floor)")
+            rec = _dense_stage_record(takeoff, seed, workers)
+            records.append(rec)
+            _say(progress, f"  {_fmt_s(rec['median_s'])} per stage, peak {rec['peak_mb']:.0f} MiB")
     mission = (0 if quick else MISSION_ROBOTS) if mission is None else int(mission)
     if mission > 0:
         _say(progress, f"whole mission: coverage-large, N = {mission:,}, every output")

@@ -68,7 +68,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from swarmgames.arrays import freeze_fields
-from swarmgames.game.potentials import GamePayoffs, _check_empty_actions
+from swarmgames.game.potentials import GamePayoffs, _check_empty_actions, shared_tables
 from swarmgames.names import ENGINES
 
 __all__ = [
@@ -302,7 +302,9 @@ def _mean_field_compiled(
     (stable, so the update order of the valid variables is kept) and scattered back. With a
     :class:`~swarmgames.game.potentials.PairSource`, the games are solved in chunks whose
     tables are computed just before (:data:`SOURCE_CHUNK_ELEMS`): the same results as one
-    batch, since every game is solved alone."""
+    batch, since every game is solved alone. A source that ranks its games' variables
+    (``PairSource.shared``) gives every game's table in rank order, once for every group of
+    games that hold the same variables, and each game is solved on its group's table."""
     from swarmgames.game.meanfield_compiled import PARALLEL_MIN_GAMES, solve_batch
 
     mask = payoffs.mask
@@ -321,19 +323,37 @@ def _mean_field_compiled(
         w = w[np.arange(o.shape[0])[:, None], o]
         return np.take_along_axis(w, o[:, None, None, :, None], axis=3)
 
-    if payoffs.pair_source is None:
-        parts = [(np.arange(b), reordered(payoffs.pair, slice(None)))]
-    else:
-        step = max(PARALLEL_MIN_GAMES, SOURCE_CHUNK_ELEMS // max(1, (k_vars * a) ** 2))
+    source = payoffs.pair_source
+    same = shared_tables(source)
+    step = max(PARALLEL_MIN_GAMES, SOURCE_CHUNK_ELEMS // max(1, (k_vars * a) ** 2))
+    if source is None:
+        parts = [(np.arange(b), reordered(payoffs.pair, slice(None)), None, None)]
+    elif same is None:
         parts = (
-            (g, reordered(payoffs.pair_source.table(g), g))
+            (g, reordered(source.table(g), g), None, None)
             for g in (np.arange(lo, min(b, lo + step)) for lo in range(0, b, step))
+        )
+    else:
+        head, rank = (np.asarray(v, dtype=np.int64) for v in same)
+        heads, table_of = np.unique(head, return_inverse=True)
+        table_of = table_of.reshape(-1)
+        # Variable k of a (reordered) game is variable rank[b, order[b, k]] of its table.
+        perm = rank if prefix else np.take_along_axis(rank, order, axis=1)
+
+        def part(h):
+            games = np.flatnonzero((table_of >= h[0]) & (table_of <= h[-1]))
+            return games, source.ranked_table(heads[h]), table_of[games] - h[0], perm[games]
+
+        parts = (
+            part(np.arange(lo, min(heads.size, lo + step))) for lo in range(0, heads.size, step)
         )
     q = np.zeros((b, k_vars, a), dtype=logits.dtype)
     its = np.zeros(b, dtype=np.int64)
     kls = np.zeros(b, dtype=np.float64)
-    for g, w in parts:
-        q[g], its[g], kls[g] = solve_batch(logits[g], w, n_valid[g], beta, delta, max_iter)
+    for g, w, table, game_perm in parts:
+        q[g], its[g], kls[g] = solve_batch(
+            logits[g], w, n_valid[g], beta, delta, max_iter, table=table, perm=game_perm
+        )
     if not prefix:
         back = np.empty_like(q)
         back[rows, order] = q

@@ -19,6 +19,15 @@ number of threads. Against the numpy engines it agrees to rounding (about 1e-15 
 float64). The softmax and the KL divergence are plain sequential loops; the KL is accumulated
 in float64 whatever the table precision.
 
+Shared tables
+-------------
+A game may read its pairwise table in another variable order (``perm``): the sweeps update
+its variables in the game's own order (Algorithm 1's, the owner first), but the marginals
+are kept, and every pair field summed, in the table's order. Games that hold the same
+robots in the same states (a dense swarm, where every game holds every robot) then read one
+table, held once, instead of one each; a source that ranks every game's variables
+canonically (``PairSource.shared``) makes the results independent of which games share.
+
 References
 ----------
 .. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
@@ -29,6 +38,7 @@ References
 
 from __future__ import annotations
 
+import itertools
 import os
 import threading
 
@@ -39,6 +49,7 @@ import threading
 # layer starts (the first parallel launch); a value the user set is kept.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -72,69 +83,109 @@ def _dot(row, q, n):
 
 
 @njit(cache=True, nogil=True)
-def _solve_game(logits, w, nv, has_pair, beta, delta, max_iter, q_out):
-    """Mean-field sweeps of one game until KL < delta or ``max_iter`` sweeps.
+def _solve_games(task, games, logits, w, table, perm, nv, has_pair, beta, delta, max_iter,
+                 q_out, its, kls):  # fmt: skip
+    """Mean-field sweeps of the games ``games[task[0]:task[1]]``, which read one table and
+    have the same number of valid variables, each until KL < delta or ``max_iter`` sweeps.
 
-    logits : (K, A), β·U with -inf at invalid actions; w : (K, A, K, A) pair table; the first
-    ``nv`` variables are the valid ones. Writes Q into ``q_out`` (K, A); returns (sweeps, KL).
+    Per game: logits (K, A), β·U with -inf at invalid actions, in the game's order; the pair
+    table w[table[g]] (K, A, K, A) in its own order, where variable k of the game is
+    variable ``perm[g, k]`` (the identity: the game's order); the first ``nv`` variables of
+    both are the valid ones. The sweeps update the game's variables in the game's order;
+    the marginals are kept, and every pair field summed, in the table's. The games advance
+    in step, variable by variable, so that the rows of the table that the games read at once
+    stay in cache; each game's arithmetic is its own. Writes Q into ``q_out[g]`` (K, A) in
+    the game's order, the sweeps into ``its[g]`` and the last KL into ``kls[g]``.
     """
-    a = logits.shape[1]
-    n = nv * a
-    q = np.zeros(n, logits.dtype)
-    q_old = np.empty(n, logits.dtype)
-    z = np.empty(a, logits.dtype)
-    wf = w.reshape((w.shape[0] * w.shape[1], w.shape[2] * w.shape[3]))
-    for k in range(nv):
-        for x in range(a):
-            z[x] = logits[k, x]
-        _softmax_into(z, q, k * a)
-    it = 0
-    kl = np.inf
-    while it < max_iter:
-        it += 1
-        q_old[:] = q
-        for k in range(nv):
-            off = k * a
+    lo, hi = task[0], task[1]
+    n_g = hi - lo
+    g0 = games[lo]
+    a = logits.shape[2]
+    n = nv[g0] * a
+    dt = logits.dtype
+    q = np.zeros((n_g, n), dt)
+    q_old = np.empty((n_g, n), dt)
+    z = np.empty(a, dt)
+    tw = table[g0] * np.int64(has_pair)  # the dummy table of a batch without pairwise term
+    wt = w[tw]
+    wf = wt.reshape((wt.shape[0] * wt.shape[1], wt.shape[2] * wt.shape[3]))
+    live = np.ones(n_g, np.bool_)
+    left = n_g
+    for i in range(n_g):
+        g = games[lo + i]
+        its[g] = 0
+        kls[g] = np.inf
+        for k in range(nv[g]):
             for x in range(a):
-                if has_pair:
-                    # β·(Σ W Q) + β·U, the order of the numpy engines.
-                    z[x] = _dot(wf[off + x], q, n) * beta + logits[k, x]
-                else:
-                    z[x] = logits[k, x]
-            _softmax_into(z, q, off)
-        kl = 0.0
-        for k in range(nv):
-            s = 0.0
+                z[x] = logits[g, k, x]
+            _softmax_into(z, q[i], perm[g, k] * a)
+    while left > 0:
+        for i in range(n_g):
+            if live[i]:
+                q_old[i] = q[i]
+                its[games[lo + i]] += 1
+        for k in range(nv[g0]):
+            for i in range(n_g):
+                if not live[i]:
+                    continue
+                g = games[lo + i]
+                qi = q[i]
+                off = perm[g, k] * a
+                for x in range(a):
+                    if has_pair:
+                        # β·(Σ W Q) + β·U, the order of the numpy engines.
+                        z[x] = _dot(wf[off + x], qi, n) * beta + logits[g, k, x]
+                    else:
+                        z[x] = logits[g, k, x]
+                _softmax_into(z, qi, off)
+        for i in range(n_g):
+            if not live[i]:
+                continue
+            g = games[lo + i]
+            kl = 0.0
+            for k in range(nv[g]):
+                off = perm[g, k] * a
+                s = 0.0
+                for x in range(a):
+                    p = np.float64(q_old[i, off + x])
+                    if p > 0.0:
+                        s += p * (np.log(p) - np.log(np.float64(q[i, off + x])))
+                kl += s
+            kls[g] = kl
+            if kl < delta or its[g] >= max_iter:
+                live[i] = False
+                left -= 1
+    for i in range(n_g):
+        g = games[lo + i]
+        for k in range(nv[g]):
             for x in range(a):
-                p = np.float64(q_old[k * a + x])
-                if p > 0.0:
-                    s += p * (np.log(p) - np.log(np.float64(q[k * a + x])))
-            kl += s
-        if kl < delta:
-            break
-    for k in range(nv):
-        for x in range(a):
-            q_out[k, x] = q[k * a + x]
-    return it, kl
-
-
-@njit(cache=True, nogil=True)
-def _solve_into(g, logits, w, nv, has_pair, beta, delta, max_iter, q, its, kls):
-    """Solve game ``g`` of the batch into row ``g`` of the outputs."""
-    gw = g * np.int64(has_pair)  # the dummy table of a batch without pairwise term
-    its[g], kls[g] = _solve_game(logits[g], w[gw], nv[g], has_pair, beta, delta, max_iter, q[g])
+                q_out[g, k, x] = q[i, perm[g, k] * a + x]
 
 
 @njit(cache=True, nogil=True, parallel=True)
-def _solve_parallel(logits, w, nv, has_pair, beta, delta, max_iter, q, its, kls):
-    for g in prange(logits.shape[0]):
-        _solve_into(g, logits, w, nv, has_pair, beta, delta, max_iter, q, its, kls)
+def _solve_parallel(tasks, *args):
+    for t in prange(tasks.shape[0]):
+        _solve_games(tasks[t], *args)
 
 
 @njit(cache=True, nogil=True)
-def _solve_serial(logits, w, nv, has_pair, beta, delta, max_iter, q, its, kls):
-    for g in range(logits.shape[0]):
-        _solve_into(g, logits, w, nv, has_pair, beta, delta, max_iter, q, its, kls)
+def _solve_serial(tasks, *args):
+    for t in range(tasks.shape[0]):
+        _solve_games(tasks[t], *args)
+
+
+def _tasks(table: np.ndarray, n_valid: np.ndarray, threads: int) -> tuple[np.ndarray, np.ndarray]:
+    """The games in task order and the ``[start, end)`` of every task: the games that read
+    one table (with as many valid variables), split into at most ``threads`` tasks."""
+    order = np.lexsort((n_valid, table))
+    key_t, key_v = table[order], n_valid[order]
+    cut = np.flatnonzero((np.diff(key_t) != 0) | (np.diff(key_v) != 0)) + 1
+    bounds = np.concatenate([[0], cut, [order.size]])
+    tasks = []
+    for lo, hi in itertools.pairwise(bounds):
+        per = -(-(hi - lo) // max(1, threads))
+        tasks.extend((s, min(hi, s + per)) for s in range(lo, hi, per))
+    return order.astype(np.int64), np.asarray(tasks, dtype=np.int64).reshape(-1, 2)
 
 
 PARALLEL_MIN_GAMES = 8
@@ -169,6 +220,8 @@ def solve_batch(
     beta: float,
     delta: float,
     max_iter: int,
+    table: np.ndarray | None = None,
+    perm: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Solve B games whose valid variables are a prefix of each row.
 
@@ -176,12 +229,22 @@ def solve_batch(
     ----------
     logits : ndarray, shape (B, K, A)
         β·U, ``-inf`` at invalid actions (at least one finite entry per valid variable).
-    pair : ndarray, shape (B, K, A, K, A), or None
-        W of :mod:`swarmgames.game.meanfield`, same dtype as ``logits``.
+    pair : ndarray, shape (B, K, A, K, A) or (R, K, A, K, A), or None
+        W of :mod:`swarmgames.game.meanfield`, same dtype as ``logits``: one table per game,
+        or R tables that games share (``table``, ``perm``).
     n_valid : ndarray of int, shape (B,)
         Valid variables of each game (variables ``0 .. n_valid - 1``).
     beta, delta, max_iter
         As :func:`~swarmgames.game.meanfield.mean_field` (already validated).
+    table : ndarray of int, shape (B,), optional
+        The table of ``pair`` that each game reads (default: game b reads table b).
+    perm : ndarray of int, shape (B, K), optional
+        Variable k of game b is variable ``perm[b, k]`` of its table (default: the
+        identity); its valid variables must map onto the table's first ``n_valid[b]``:
+        ``W_b[k, x, l, c] = pair[table[b], perm[b, k], x, perm[b, l], c]``. The sweeps still
+        update the game's variables in the game's order, but each pair field is summed in
+        the table's order: a game's results depend on its table's order (not on the other
+        games reading the same table).
 
     Returns
     -------
@@ -199,10 +262,19 @@ def solve_batch(
         return q, its, kls
     has_pair = pair is not None
     w = np.ascontiguousarray(pair) if has_pair else np.zeros((1, 1, 1, 1, 1), dtype=dt)
+    table = np.arange(b) if table is None or not has_pair else np.asarray(table, np.int64)
+    perm = np.broadcast_to(np.arange(k_vars), (b, k_vars)) if perm is None else perm
+    n_valid = np.ascontiguousarray(n_valid, dtype=np.int64)
+    parallel = in_parallel(b, (k_vars * a) ** 2 if has_pair else 0)
+    games, tasks = _tasks(table, n_valid, numba.get_num_threads() if parallel else 1)
     args = (
+        tasks,
+        games,
         np.ascontiguousarray(logits),
         w,
-        np.ascontiguousarray(n_valid, dtype=np.int64),
+        table,
+        np.ascontiguousarray(perm, dtype=np.int64),
+        n_valid,
         has_pair,
         dt.type(beta),
         float(delta),
@@ -211,7 +283,7 @@ def solve_batch(
         its,
         kls,
     )
-    if not in_parallel(b, (k_vars * a) ** 2 if has_pair else 0):
+    if not parallel:
         _solve_serial(*args)
     else:
         with POOL_LOCK:

@@ -4,7 +4,10 @@ A stage (:func:`~swarmgames.game.stage.solve_stage`) holds at once, for its larg
 local games (:func:`~swarmgames.game.stage.size_groups`: at most ``max_pair_elems`` pairwise
 entries, or one game when a single game is larger):
 
-* the pairwise table, ``B K² A²`` entries in the solver's dtype;
+* the pairwise table, ``B K² A²`` entries in the solver's dtype; or, when the solver computes
+  the tables on demand (``pair_on_demand``), the tables of one chunk of games (at least 8
+  games, or :data:`~swarmgames.game.meanfield.SOURCE_CHUNK_ELEMS` entries) and the batch's
+  rows of them at a profile, ``B K² A`` entries, which then bound the batch;
 * the largest working blocks: the unary integral's (before the pairwise table exists), the
   pairwise potentials' (beside it) or the measurement's gathers of it (beside it); the
   mission says how much its potentials need (``unary_bytes``, ``pair_work_bytes``);
@@ -94,6 +97,7 @@ def stage_memory(
     unary_bytes: float = 0.0,
     pair_work_bytes: float = 0.0,
     max_pair_elems: int | None = None,
+    pair_on_demand: bool = False,
 ) -> MemoryEstimate:
     """Predicted peak memory of one stage of ``n_robots`` local games.
 
@@ -118,22 +122,35 @@ def stage_memory(
         integral's chunks) and beside the pairwise table (the crowding penalty's blocks).
     max_pair_elems : int, optional
         The stage's batch budget (default :data:`~swarmgames.game.stage.MAX_PAIR_ELEMS`).
+    pair_on_demand : bool, default False
+        The solver computes the pairwise tables per chunk of games
+        (:func:`~swarmgames.game.stage.pair_on_demand`).
 
     Returns
     -------
     MemoryEstimate
     """
+    from swarmgames.game.meanfield import SOURCE_CHUNK_ELEMS
+    from swarmgames.game.meanfield_compiled import PARALLEL_MIN_GAMES
     from swarmgames.game.stage import MAX_PAIR_ELEMS
 
     budget = MAX_PAIR_ELEMS if max_pair_elems is None else int(max_pair_elems)
     n, k, a = int(n_robots), max(1, min(int(n_vars), int(n_robots))), int(n_actions)
     per_game = float(k * k * a * a)
-    games = n if n * per_game <= budget else max(1, min(n, int(budget // per_game)))
+    held = per_game / a if pair_on_demand else per_game
+    games = n if n * held <= budget else max(1, min(n, int(budget // held)))
     entries = games * per_game
-    table = entries * itemsize
+    if pair_on_demand:
+        # One chunk's tables, and the rows at a profile (the kernel's output and its sum).
+        chunk = min(games, max(PARALLEL_MIN_GAMES, SOURCE_CHUNK_ELEMS // max(1, k * a) ** 2))
+        table = chunk * per_game * itemsize
+        gathers = 2.0 * games * held * itemsize
+    else:
+        table = entries * itemsize
+        # The measurement's gathers (int64 indices, values, masks) run beside the table.
+        gathers = entries / a * _GATHER_BYTES
     # The unary integral runs before the pairwise table exists; the pairwise blocks and the
-    # measurement's gathers (int64 indices, values, masks) each run beside the table.
-    gathers = entries / a * _GATHER_BYTES
+    # measurement's gathers each run beside it.
     work = max(float(unary_bytes) - table, float(pair_work_bytes), gathers)
     parts = {
         "pairwise tables of one batch": table,

@@ -57,6 +57,7 @@ __all__ = [
     "TablePotentials",
     "evaluate_payoffs",
     "pair_weights",
+    "shared_tables",
 ]
 
 
@@ -81,7 +82,11 @@ class Potentials(Protocol):
     PairSource`` (or ``None`` to fall back to the forms above), the weighted table W
     computed per game where it is needed (:class:`PairSource`), with ``weights`` the
     pairwise weight of every game, shape ``(B,)`` (:func:`pair_weights`); the built-in
-    coverage potentials offer it for float32 tables.
+    coverage potentials offer it for float32 tables. With it, ``pair_on_demand(dtype) ->
+    bool`` says beforehand whether ``pair_source`` gives a source for ``dtype``: a stage
+    solved by the compiled engine then sizes its batches without the tables' budget
+    (:func:`~swarmgames.game.stage.size_groups`), so that games holding the same robots
+    fall in one batch and share their tables (``PairSource.shared``).
 
     Optional owner-only form: ``owner_unary(batch) -> (B, A)``, φ_u of every game's
     variable 0 alone, equal to ``unary(batch)[:, 0]`` bit for bit; the global regret, which
@@ -109,6 +114,18 @@ class PairSource(Protocol):
     ``at(profile)`` returns ``W[b, k, a, l, profile[b, l]]`` for every game, shape
     ``(B, K, A, K)`` (what the payoff and regret measurements need, without the table);
     ``select(games)`` returns the source of a subset of games.
+
+    Optional, together: ``shared() -> (head, rank)`` and ``ranked_table(games)``, for
+    batches in which games hold the same variables in another order (a dense swarm, where
+    every game holds every robot). ``rank`` (B, K) int ranks every game's variables
+    canonically (a permutation of ``0 .. K-1``, the valid variables first);
+    ``ranked_table(games)`` returns ``W[games]`` with the variables in rank order,
+    ``T[g, rank[b, k], a, rank[b, l], c] = W[b, k, a, l, c]`` for ``b = games[g]``; ``head``
+    (B,) int names for every game one whose ranked table equals its own bit for bit
+    (``head[head[b]] == head[b]``). The compiled mean-field engine then computes the heads'
+    ranked tables only and sums every game's pair fields in rank order
+    (:mod:`~swarmgames.game.meanfield_compiled`, "Shared tables"): a game's results do not
+    depend on which games share its table.
     """
 
     def table(self, games: np.ndarray) -> np.ndarray: ...
@@ -116,6 +133,16 @@ class PairSource(Protocol):
     def at(self, profile: np.ndarray) -> np.ndarray: ...
 
     def select(self, games) -> PairSource: ...
+
+
+def shared_tables(source) -> tuple[np.ndarray, np.ndarray] | None:
+    """``source.shared()`` (``(head, rank)``) when ``source`` is a
+    :class:`PairSource` that ranks its games' variables (``shared`` and ``ranked_table``),
+    else None."""
+    fn, ranked = getattr(source, "shared", None), getattr(source, "ranked_table", None)
+    if not (callable(fn) and callable(ranked)):
+        return None
+    return fn()
 
 
 @dataclass(frozen=True)

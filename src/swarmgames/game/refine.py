@@ -23,7 +23,8 @@ tables. Only the games with a positive gain are swept, in up to three rounds:
    pairwise table, or on tables of chunks of those games computed just before (a
    :class:`~swarmgames.game.potentials.PairSource`, at most ``SOURCE_CHUNK_ELEMS`` entries
    at a time, as the compiled mean-field engine does: no ``(B, K, A, K, A)`` table of the
-   batch is built), whose sums may round otherwise than the stopping test's;
+   batch is built; with a source that ranks its games, one ranked table per group of games
+   holding the same variables), whose sums may round otherwise than the stopping test's;
 2. the games the stopping test still finds a gain in (a near-tie that the two roundings
    see differently) swept with the test's own fields, from ``pair_source.at``;
 3. should that leave any, on the fields of the whole batch, the test's arithmetic exactly.
@@ -48,7 +49,7 @@ import numpy as np
 from swarmgames.arrays import freeze_fields
 from swarmgames.game import meanfield
 from swarmgames.game.equilibrium import _check_profile, _fields, deviation_gains
-from swarmgames.game.potentials import GamePayoffs
+from swarmgames.game.potentials import GamePayoffs, shared_tables
 from swarmgames.names import REFINE_METHODS
 
 __all__ = ["REFINE_MAX_SWEEPS", "REFINE_METHODS", "Refinement", "refine_profiles"]
@@ -159,6 +160,10 @@ def _chunked_sweeps(
     them (at most ``SOURCE_CHUNK_ELEMS`` entries each); ``x`` updated in place."""
     _, k, a = payoffs.shape
     per = max(1, meanfield.SOURCE_CHUNK_ELEMS // max(1, (k * a) ** 2))
+    source = payoffs.pair_source
+    same = shared_tables(source)
+    if same is not None and meanfield.compiled_available():
+        return _ranked_sweeps(payoffs, x, todo, budget, same, per)
     sweeps = np.zeros(todo.size, dtype=np.int64)
     moves = np.zeros(todo.size, dtype=np.int64)
     for lo in range(0, todo.size, per):
@@ -175,6 +180,27 @@ def _chunked_sweeps(
         x[idx] = xs
         sweeps[lo : lo + per], moves[lo : lo + per] = s, m
         del held, sub  # this chunk's table is freed before the next one is built
+    return sweeps, moves
+
+
+def _ranked_sweeps(payoffs, x, todo, budget, same, per):
+    """:func:`_chunked_sweeps` on the source's ranked tables (``PairSource.shared``), one
+    per group of games holding the same variables, chunk by chunk of groups."""
+    from swarmgames.game.refine_compiled import compiled_sweeps
+
+    head, rank = (np.asarray(v, dtype=np.int64) for v in same)
+    heads, table_of = np.unique(head[todo], return_inverse=True)
+    table_of = table_of.reshape(-1)
+    sweeps = np.zeros(todo.size, dtype=np.int64)
+    moves = np.zeros(todo.size, dtype=np.int64)
+    for lo in range(0, heads.size, per):
+        sel = np.flatnonzero((table_of >= lo) & (table_of < lo + per))
+        w = payoffs.pair_source.ranked_table(heads[lo : lo + per])
+        sweeps[sel], moves[sel] = compiled_sweeps(
+            payoffs.unary, w, payoffs.action_mask, payoffs.mask, x, todo[sel], budget[sel],
+            table=table_of[sel] - lo, perm=rank,
+        )  # fmt: skip
+        del w  # this chunk's tables are freed before the next ones are built
     return sweeps, moves
 
 

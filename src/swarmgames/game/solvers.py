@@ -35,7 +35,7 @@ from swarmgames.arrays import freeze_fields
 from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.equilibrium import OwnerPayoffs, owner_payoffs
-from swarmgames.game.meanfield import ENGINES, check_parameters, mean_field
+from swarmgames.game.meanfield import ENGINES, check_parameters, mean_field, resolve_engine
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
 from swarmgames.names import SOLVERS
 from swarmgames.rng import as_generator
@@ -321,6 +321,17 @@ class MeanFieldSolver(_Base):
             )
 
     name = "mean_field"
+
+    def pairs_on_demand(self, potentials: Potentials) -> bool:
+        """Whether this solver computes the pairwise tables of ``potentials`` per chunk of
+        games (the compiled engine, with potentials whose optional
+        ``pair_on_demand(dtype)`` says they give a :class:`~swarmgames.game.potentials.
+        PairSource` in this dtype) instead of holding a batch's: the stage then sizes its
+        batches by the measurements' rows (:func:`~swarmgames.game.stage.size_groups`)."""
+        fn = getattr(potentials, "pair_on_demand", None)
+        if not callable(fn) or self.alpha_b <= 0:
+            return False
+        return resolve_engine(self.engine) == "compiled" and bool(fn(np.dtype(self.dtype)))
 
     def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
         """Mean-field marginals of every game, then each owner's action."""

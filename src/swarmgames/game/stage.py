@@ -74,6 +74,7 @@ __all__ = [
     "evaluate_games",
     "measure_expost",
     "measure_stage",
+    "pair_on_demand",
     "plan_stage",
     "size_groups",
     "solve_stage",
@@ -169,14 +170,21 @@ MAX_PAIR_ELEMS = 25_000_000
 
 
 def size_groups(
-    sizes: np.ndarray, buckets: int, n_actions: int, max_elems: int = MAX_PAIR_ELEMS
+    sizes: np.ndarray,
+    buckets: int,
+    n_actions: int,
+    max_elems: int = MAX_PAIR_ELEMS,
+    *,
+    on_demand: bool = False,
 ) -> list[np.ndarray]:
     """Robots split into batches of similar neighbourhood size |N_i|.
 
     Robots are sorted by size (stable) and split into ``buckets`` equal-count groups
     (0 = automatic: one per 128 robots, at most 8); a group whose pairwise table
     (``count × K_max² × A²`` entries) would exceed ``max_elems`` is split further, so the
-    memory of a stage stays bounded however large the swarm.
+    memory of a stage stays bounded however large the swarm. With ``on_demand`` (the solver
+    computes the tables per chunk of games, :func:`pair_on_demand`) a batch holds no table,
+    only the measurements' rows of it at a profile, ``count × K_max² × A`` entries.
 
     Returns
     -------
@@ -185,18 +193,26 @@ def size_groups(
     """
     sizes = np.asarray(sizes)
     n = sizes.size
+    per_var = n_actions if on_demand else n_actions**2
     if buckets == 0:
         buckets = int(np.clip(n // 128, 1, 8))
-    if buckets == 1 and n * int(sizes.max(initial=1)) ** 2 * n_actions**2 <= max_elems:
+    if buckets == 1 and n * int(sizes.max(initial=1)) ** 2 * per_var <= max_elems:
         return [np.arange(n)]
     order = np.argsort(sizes, kind="stable")
     out = []
     for g in np.array_split(order, min(int(buckets), max(n, 1))):
         if not g.size:
             continue
-        per = max(1, int(max_elems // max(1, int(sizes[g[-1]]) ** 2 * n_actions**2)))
+        per = max(1, int(max_elems // max(1, int(sizes[g[-1]]) ** 2 * per_var)))
         out.extend(np.array_split(g, -(-g.size // per)))
     return out
+
+
+def pair_on_demand(solver, potentials) -> bool:
+    """Whether ``solver`` computes the pairwise tables of ``potentials`` per chunk of games
+    instead of holding a batch's (its optional ``pairs_on_demand(potentials)``)."""
+    fn = getattr(solver, "pairs_on_demand", None)
+    return bool(fn(potentials)) if callable(fn) else False
 
 
 def _check_buckets(buckets) -> int:
@@ -445,7 +461,9 @@ def solve_stage(
     sizes = source.sizes
     if mode == "exact":  # the games hold the context too
         sizes = sizes + source.context_sizes
-    groups = size_groups(sizes, _check_buckets(buckets), int(action_model.n_actions))
+    on_demand = pair_on_demand(solver, potentials)
+    n_act = int(action_model.n_actions)
+    groups = size_groups(sizes, _check_buckets(buckets), n_act, on_demand=on_demand)
     build_s = time.perf_counter() - t0
     rec = _Record(n, int(action_model.n_actions))
     integrate_s = solve_s = refine_s = 0.0
@@ -491,7 +509,7 @@ def solve_stage(
         _global_regret(rec, solver, messages, batches, action_model, potentials)
         true_groups = groups
         if inbox is not None:  # the true neighbourhoods may be sized otherwise
-            true_groups = size_groups(messages.sizes, int(buckets), int(action_model.n_actions))
+            true_groups = size_groups(messages.sizes, int(buckets), n_act, on_demand=on_demand)
         expost_s = _expost(rec, solver, messages, true_groups, nxt, action_model, potentials)
     extra = {}
     if keep_games:

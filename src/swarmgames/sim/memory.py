@@ -201,6 +201,15 @@ def _potentials_bytes(mission, k: int, a: int, games: int, n: int) -> tuple[floa
     return unary, pair
 
 
+def _pairs_on_demand(config, mission) -> bool:
+    """Whether the run's solver computes its mission's pairwise tables on demand."""
+    from swarmgames.game.stage import pair_on_demand
+    from swarmgames.sim.controllers import solver_from_config
+
+    pot = getattr(mission, "potentials", None)
+    return pot is not None and pair_on_demand(solver_from_config(config.game), pot)
+
+
 def estimate_memory(config, mission=None, *, whole_run: bool = True) -> MemoryEstimate:
     """Predicted peak memory of a run of ``config``.
 
@@ -228,7 +237,11 @@ def estimate_memory(config, mission=None, *, whole_run: bool = True) -> MemoryEs
     itemsize = 4 if config.game.dtype == "float32" else 8
     lloyd = config.sim.controller == "lloyd"
     centralised = config.game.solver == "centralised" and not lloyd
-    kwargs = {"state_dim": d, "itemsize": itemsize}
+    kwargs = {
+        "state_dim": d,
+        "itemsize": itemsize,
+        "pair_on_demand": not centralised and _pairs_on_demand(config, mission),
+    }
     first = stage_memory(n, k, a, **kwargs)
     unary, pair_work = _potentials_bytes(mission, first.n_vars, a, first.batch_games, n)
     est = stage_memory(

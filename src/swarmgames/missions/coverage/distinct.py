@@ -56,6 +56,19 @@ class DistinctGames:
         out[self.source < 0] = fill
         return out
 
+    def expand_pairs(self, tables: np.ndarray) -> np.ndarray:
+        """Every game's pairwise table, (B, K, A, K, A), from ``tables`` (R, K, A, K, A) of
+        the computed games: ``out[b, k, :, l, :]`` is the entry of the variables that ``k``
+        and ``l`` are in ``b``'s computed game (at padding, a copy of a valid entry)."""
+        b, k = self.source.shape
+        src = np.maximum(self.source, 0)
+        games = src.max(axis=1) // k
+        var = np.where(self.source >= 0, src % k, 0)
+        out = np.empty((b, *tables.shape[1:]), dtype=tables.dtype)
+        for g in range(b):
+            out[g] = tables[games[g]].take(var[g], axis=0).take(var[g], axis=2)
+        return out
+
 
 def distinct_games(ids: np.ndarray, mask: np.ndarray, *values: np.ndarray) -> DistinctGames | None:
     """The games of a batch that are repeats of an earlier one, up to the order of their

@@ -517,6 +517,10 @@ class CoveragePairs:
     weight : ndarray of float32, shape (B,)
         The engine's pairwise weight of every game, :math:`\\alpha_b` or
         :math:`\\alpha_b / (K_b - 1)` (:func:`~swarmgames.game.potentials.pair_weights`).
+    ids : ndarray of int64, shape (B, K), optional
+        Which robot each variable is (``2 * member + is_virtual``); with it, :meth:`shared`
+        ranks every game's variables by id and names the games that hold the same
+        variables in another order.
     """
 
     points: np.ndarray
@@ -527,6 +531,7 @@ class CoveragePairs:
     inv_sep: np.float32
     crowd: np.float32
     weight: np.ndarray
+    ids: np.ndarray | None = None
 
     def _consts(self):
         return (self.scale, self.offset, self.d02, self.inv_sep, self.crowd, self.weight)
@@ -549,8 +554,61 @@ class CoveragePairs:
             _pair_at(prof, self.points, self.valid, *self._consts(), out)
         return out.reshape(b, k, k, a).transpose(0, 2, 3, 1)
 
+    def _ranking(self) -> np.ndarray:
+        """Every game's variables sorted by id, valid first: ``order`` (B, K)."""
+        key = np.where(self.valid.any(axis=2), self.ids, np.iinfo(np.int64).max)
+        return np.argsort(key, axis=1, kind="stable")
+
+    def shared(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(head, rank)`` of :class:`~swarmgames.game.potentials.PairSource`: every game's
+        variables ranked by id (``2 * member + is_virtual``, the valid ones first), and
+        games whose valid variables are the same robots with the same next positions,
+        valid actions and weight share the ranked table of the first of them. Each entry
+        of W is computed from its two points alone, so their ranked tables are equal bit for
+        bit. None without ids."""
+        if self.ids is None:
+            return None
+        from swarmgames.missions.coverage.distinct import distinct_games
+
+        b, k = self.ids.shape
+        order = self._ranking()
+        rank = np.empty_like(order)
+        rank[np.arange(b)[:, None], order] = np.arange(k)
+        head = np.arange(b)
+        weight = np.broadcast_to(self.weight[:, None], (b, k))
+        valid_vars = self.valid.any(axis=2)
+        same = distinct_games(self.ids, valid_vars, self.points, self.valid, weight)
+        if same is not None:
+            src = same.source
+            cand = same.games[src.max(axis=1) // k]
+            # A variable must hold its head's rank too (ids repeated inside a game would
+            # break ties by position): otherwise the game keeps its own table.
+            agree = (rank == rank[cand[:, None], np.maximum(src, 0) % k]) | ~valid_vars
+            head = np.where(agree.all(axis=1), cand, head)
+        return head, rank
+
+    def ranked_table(self, games: np.ndarray) -> np.ndarray:
+        """W of ``games`` with their variables in rank order (:meth:`shared`), (G, K, A, K,
+        A) float32, a new array: the table of the game's points reordered, entry by entry
+        equal to :meth:`table`'s."""
+        games = np.ascontiguousarray(games, dtype=np.int64)
+        order = self._ranking()[games]
+        rows = games[:, None]
+        points = np.ascontiguousarray(self.points[rows, order])
+        valid = np.ascontiguousarray(self.valid[rows, order])
+        _, k, a = valid.shape
+        out = np.empty((games.size, k, a, k, a), dtype=np.float32)
+        consts = (*self._consts()[:-1], np.ascontiguousarray(self.weight[games]))
+        with POOL_LOCK:
+            _pair_tables(np.arange(games.size), points, valid, *consts, out)
+        return out
+
     def select(self, games) -> CoveragePairs:
         """The source of a subset of games."""
         return replace(
-            self, points=self.points[games], valid=self.valid[games], weight=self.weight[games]
+            self,
+            points=self.points[games],
+            valid=self.valid[games],
+            weight=self.weight[games],
+            ids=None if self.ids is None else self.ids[games],
         )

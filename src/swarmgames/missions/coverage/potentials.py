@@ -467,6 +467,11 @@ class CoveragePotentials:
                 out[lo:hi, k0:k1] = np.where(ok, val, 0.0)
         return out
 
+    def pair_on_demand(self, dtype) -> bool:
+        """Whether :meth:`pair_source` gives a source for tables of ``dtype`` (float32 with
+        the compiled kernel)."""
+        return np.dtype(dtype) == np.float32 and self._compiled
+
     def pair_source(self, batch, weights, dtype=np.float64):
         """The engine's weighted table :math:`w_b \\times` :meth:`pair_table` (``weights``:
         each game's pairwise weight :math:`w_b`, shape (B,), or one α_b for all), on
@@ -475,7 +480,7 @@ class CoveragePotentials:
         never for the whole batch), for float32 tables with the compiled kernel; None
         otherwise (the engine then calls :meth:`pair_table`). Equal to it to float32
         rounding."""
-        if np.dtype(dtype) != np.float32 or not self._compiled:
+        if not self.pair_on_demand(dtype):
             return None
         from swarmgames.missions.coverage.kernel import CoveragePairs
 
@@ -497,6 +502,7 @@ class CoveragePotentials:
             weight=np.ascontiguousarray(
                 np.broadcast_to(np.asarray(weights, dtype=np.float32), mask.shape[:1])
             ),
+            ids=_state_ids(batch),
         )
 
     def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
@@ -506,11 +512,30 @@ class CoveragePotentials:
         :math:`2 \\phi_{sep} / \\alpha_b` with the pairwise crowding penalty on; entries of
         padding and invalid actions are finite but meaningless.
 
-        In float64 the values equal :meth:`pairwise` bit for bit; in float32 the squared
-        distances come from one batched product per game, :math:`|p|^2 + |q|^2 - 2 p \\cdot q`
-        in float64 on coordinates relative to the game's first position, and the logarithm
-        in float32."""
+        In float64 the values equal :meth:`pairwise` bit for bit, and every entry is computed
+        from its two points alone, so the games of a batch that hold the same robots in the
+        same states (:mod:`~swarmgames.missions.coverage.distinct`) are computed once and the
+        others' tables are copies of it with their variables reordered, bit for bit. In
+        float32 the squared distances come from one batched product per game,
+        :math:`|p|^2 + |q|^2 - 2 p \\cdot q` in float64 on coordinates relative to the game's
+        first position, and the logarithm in float32."""
         dtype = np.dtype(dtype)
+        ids = _state_ids(batch)
+        if dtype == np.float64 and ids is not None:
+            from swarmgames.missions.coverage.distinct import distinct_games
+
+            mask = np.asarray(batch.mask, dtype=bool)
+            amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+            same = distinct_games(
+                ids, mask, np.asarray(batch.states)[..., :3],
+                np.asarray(batch.next_states)[..., :3], amask,
+            )  # fmt: skip
+            if same is not None:
+                return same.expand_pairs(self._pair_table(batch.select(same.games), dtype))
+        return self._pair_table(batch, dtype)
+
+    def _pair_table(self, batch, dtype) -> np.ndarray:
+        """:meth:`pair_table` of every game of ``batch``, each computed."""
         nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
         B, K, A = nxt.shape[:3]
         pts = nxt.reshape(B, K * A, 3)

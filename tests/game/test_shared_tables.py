@@ -1,0 +1,213 @@
+"""Games that hold the same variables in another order are solved on one shared table.
+
+The reference is each game solved on its own table (Algorithm 1 of M. Fernando et al., ICRA
+2022 workshop, as :mod:`swarmgames.game.meanfield_compiled` runs it): on a shared table the
+compiled engine must give the same marginals and sweeps bit for bit, and the stage the same
+decisions, while computing the tables of the first game of each group only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from swarmgames.game import evaluate_payoffs, make_solver, mean_field
+from swarmgames.game.memory import stage_memory
+from swarmgames.game.potentials import GamePayoffs, PairSource
+from swarmgames.game.stage import pair_on_demand, size_groups
+from tests.game.helpers import random_games
+
+
+@dataclass(frozen=True, eq=False)
+class SharingSource:
+    """A held table served on demand, ranking every game's variables and naming the games
+    whose ranked tables are equal; ``asked`` records the games whose ranked tables the
+    engine computed."""
+
+    w: np.ndarray
+    head: np.ndarray
+    rank: np.ndarray
+    asked: list
+
+    def table(self, games):
+        return self.w[np.asarray(games)].copy()
+
+    def at(self, profile):
+        return np.take_along_axis(self.w, profile[:, None, None, :, None], axis=4)[..., 0]
+
+    def select(self, games):
+        games = np.arange(self.head.size)[games]
+        head = self.head[games]
+        first = {int(h): i for i, h in reversed(list(enumerate(head)))}
+        sub = np.array([first[int(h)] for h in head], dtype=np.int64)
+        return SharingSource(self.w[games], sub, self.rank[games], self.asked)
+
+    def shared(self):
+        return self.head, self.rank
+
+    def ranked_table(self, games):
+        self.asked.extend(np.asarray(games).tolist())
+        out = np.empty_like(self.w[games])
+        for i, g in enumerate(games):
+            order = np.argsort(self.rank[g])
+            out[i] = self.w[g][order][:, :, order]
+        return out
+
+
+def _permuted(seed, dtype, prefix=True, identity=False):
+    """Held payoffs of 12 random games and 24 more that are their variables reordered
+    (shuffled valid variables, padding kept at the end), and the same on demand, ranked
+    (a random canonical order of every group, or ``identity``: each game its own order and
+    its own table)."""
+    rng = np.random.default_rng(seed)
+    batch, pot = random_games(seed, 12, 6, 4)
+    base = evaluate_payoffs(batch, pot, 1.0, 0.5, dtype=dtype)
+    b, k, _ = base.shape
+    heads = np.concatenate([np.arange(b), rng.integers(0, b, 2 * b)])
+    # perm[g, k] is the head's variable that variable k of game g is.
+    perm = np.tile(np.arange(k), (heads.size, 1))
+    canon = np.tile(np.arange(k), (b, 1))  # the rank of every variable of the heads
+    for g in range(heads.size):
+        nv = int(base.mask[heads[g]].sum())
+        if g >= b:
+            perm[g, :nv] = rng.permutation(nv)
+        else:
+            canon[g, :nv] = rng.permutation(nv)
+    rank = canon[heads[:, None], perm]
+    rows = heads[:, None]
+    unary, amask = base.unary[rows, perm], base.action_mask[rows, perm]
+    mask, members = base.mask[rows, perm], base.members[rows, perm]
+    w = base.pair[rows, perm]  # (G, K, A, K, A), variables k then l reordered
+    w = np.take_along_axis(w, perm[:, None, None, :, None], axis=3)
+    if not prefix:  # every game loses its head's variable 1: a hole the engine reorders
+        keep = mask & (perm != 1)
+        unary, amask = np.where(keep[..., None], unary, 0.0), amask & keep[..., None]
+        w = w * keep[:, :, None, None, None] * keep[:, None, None, :, None]
+        # The ranks of the valid variables stay 0 .. n_valid - 1 (the lost one ranks last).
+        lost = np.take_along_axis(rank, np.argmax(perm == 1, axis=1)[:, None], axis=1)
+        rank = np.where(rank > lost, rank - 1, rank)
+        rank = np.where(keep | (perm != 1), rank, k - 1)
+        mask = keep
+    if identity:
+        heads, rank = np.arange(heads.size), np.tile(np.arange(k), (heads.size, 1))
+    owner = members[:, 0].astype(np.int32)
+    held = GamePayoffs(unary.astype(dtype), w.astype(dtype), amask, mask, owner, members)
+    source = SharingSource(np.asarray(held.pair), heads, rank, [])
+    lazy = GamePayoffs(held.unary, None, amask, mask, owner, members, source)
+    return held, lazy, source
+
+
+def test_a_sharing_source_conforms_to_the_protocol():
+    _, lazy, _ = _permuted(0, np.float32)
+    assert isinstance(lazy.pair_source, PairSource)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("prefix", [True, False])
+def test_games_on_shared_ranked_tables_agree_with_their_own_tables(dtype, prefix):
+    held, lazy, source = _permuted(1, dtype, prefix)
+    own = mean_field(held, 5.0, engine="compiled")
+    shared = mean_field(lazy, 5.0, engine="compiled")
+    # The same sweeps in the same order; only the pair sums run in rank order.
+    tol = 2e-5 if dtype == np.float32 else 1e-12
+    np.testing.assert_allclose(shared.marginals, own.marginals, atol=tol)
+    assert sorted(source.asked) == list(range(12))  # the heads' tables only
+
+
+def test_a_games_results_do_not_depend_on_the_games_sharing_its_table():
+    _, lazy, _ = _permuted(2, np.float32)
+    together = mean_field(lazy, 5.0, engine="compiled")
+    for g in range(lazy.shape[0]):
+        alone = mean_field(lazy.select([g]), 5.0, engine="compiled")
+        assert np.array_equal(alone.marginals[0], together.marginals[g])
+        assert alone.iterations[0] == together.iterations[g]
+
+
+def test_identity_ranks_give_the_own_tables_results_bit_for_bit():
+    held, lazy, source = _permuted(3, np.float32, identity=True)
+    own = mean_field(held, 5.0, engine="compiled")
+    shared = mean_field(lazy, 5.0, engine="compiled")
+    assert np.array_equal(own.marginals, shared.marginals)
+    assert np.array_equal(own.iterations, shared.iterations)
+    assert sorted(source.asked) == list(range(36))
+
+
+def test_chunks_of_heads_take_every_game_of_their_heads(monkeypatch):
+    import swarmgames.game.meanfield as mf
+    import swarmgames.game.meanfield_compiled as mfc
+
+    _, lazy, _ = _permuted(4, np.float32)
+    whole = mean_field(lazy, 5.0, engine="compiled")
+    monkeypatch.setattr(mf, "SOURCE_CHUNK_ELEMS", 1)
+    monkeypatch.setattr(mfc, "PARALLEL_MIN_GAMES", 1)  # one head per chunk
+    _, lazy, source = _permuted(4, np.float32)
+    chunked = mean_field(lazy, 5.0, engine="compiled")
+    assert np.array_equal(whole.marginals, chunked.marginals)
+    assert sorted(source.asked) == list(range(12))
+
+
+def test_solve_batch_rejects_nothing_and_defaults_to_own_tables():
+    from swarmgames.game.meanfield_compiled import solve_batch
+
+    held, _, _ = _permuted(3, np.float32)
+    logits = np.where(held.action_mask, held.unary * np.float32(5.0), -np.inf)
+    nv = held.mask.sum(axis=1)
+    a = solve_batch(logits, np.asarray(held.pair), nv, 5.0, 1e-6, 200)
+    b = solve_batch(
+        logits, np.asarray(held.pair), nv, 5.0, 1e-6, 200,
+        table=np.arange(nv.size), perm=np.tile(np.arange(held.shape[1]), (nv.size, 1)),
+    )  # fmt: skip
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+
+
+def test_on_demand_batches_are_bounded_by_the_measured_rows_not_the_tables():
+    sizes = np.full(300, 300)
+    held = size_groups(sizes, 0, 9)
+    lazy = size_groups(sizes, 0, 9, on_demand=True)
+    assert max(g.size for g in held) == 3  # 25 M entries / (300² 9²)
+    assert max(g.size for g in lazy) == 30  # 25 M entries / (300² 9)
+    assert sorted(np.concatenate(lazy).tolist()) == list(range(300))
+
+
+def test_which_solvers_compute_the_coverage_tables_on_demand():
+    from swarmgames.config import parse_config
+    from swarmgames.missions.coverage.mission import build
+
+    pot = build(parse_config({"swarm": {"n_robots": 4}})).potentials
+    on = make_solver("mean_field", dtype="float32", engine="compiled")
+    assert pair_on_demand(on, pot)
+    assert not pair_on_demand(make_solver("mean_field", dtype="float64"), pot)
+    assert not pair_on_demand(make_solver("mean_field", dtype="float32", engine="blas"), pot)
+    assert not pair_on_demand(make_solver("mean_field", dtype="float32", alpha_b=0.0), pot)
+    assert not pair_on_demand(make_solver("best_response", dtype="float32"), pot)
+    assert not pair_on_demand(on, object())  # potentials without the hook
+
+
+def test_the_memory_estimate_follows_the_on_demand_batches():
+    held = stage_memory(300, 300, 9, itemsize=4)
+    lazy = stage_memory(300, 300, 9, itemsize=4, pair_on_demand=True)
+    assert (held.batch_games, lazy.batch_games) == (3, 30)
+    # Eight tables of one chunk (58 M entries) and the rows of 30 games at a profile.
+    parts = dict(lazy.parts)
+    assert parts["pairwise tables of one batch"] == 8 * 2700**2 * 4
+    assert lazy.total_gib < 2.0
+
+
+def test_refinement_on_shared_ranked_tables_ends_at_a_pure_ne_whatever_the_batch():
+    """Best-response dynamics end at a pure NE of each (potential) game (D. Monderer and
+    L. S. Shapley, 1996): on the ranked tables too, and alike for a game alone."""
+    from swarmgames.game.equilibrium import local_regret
+    from swarmgames.game.refine import refine_profiles
+
+    held, lazy, source = _permuted(5, np.float32)
+    rng = np.random.default_rng(5)
+    start = np.argmax(np.where(held.action_mask, rng.random(held.action_mask.shape), -1), 2)
+    together = refine_profiles(lazy, start)
+    assert together.converged.all()
+    assert np.all(local_regret(held, together.profile) == 0.0)
+    assert source.asked and set(source.asked) <= set(range(12))  # the heads' tables only
+    for g in range(lazy.shape[0]):
+        alone = refine_profiles(lazy.select([g]), start[[g]])
+        assert np.array_equal(alone.profile[0], together.profile[g])
