@@ -38,7 +38,6 @@ References
 
 from __future__ import annotations
 
-import itertools
 import os
 import threading
 
@@ -177,15 +176,22 @@ def _solve_serial(tasks, *args):
 def _tasks(table: np.ndarray, n_valid: np.ndarray, threads: int) -> tuple[np.ndarray, np.ndarray]:
     """The games in task order and the ``[start, end)`` of every task: the games that read
     one table (with as many valid variables), split into at most ``threads`` tasks."""
+    b = table.size
+    if np.array_equal(table, np.arange(b)):  # a table each: a task each
+        games = np.arange(b, dtype=np.int64)
+        return games, np.stack([games, games + 1], axis=1)
     order = np.lexsort((n_valid, table))
     key_t, key_v = table[order], n_valid[order]
     cut = np.flatnonzero((np.diff(key_t) != 0) | (np.diff(key_v) != 0)) + 1
-    bounds = np.concatenate([[0], cut, [order.size]])
-    tasks = []
-    for lo, hi in itertools.pairwise(bounds):
-        per = -(-(hi - lo) // max(1, threads))
-        tasks.extend((s, min(hi, s + per)) for s in range(lo, hi, per))
-    return order.astype(np.int64), np.asarray(tasks, dtype=np.int64).reshape(-1, 2)
+    lo = np.concatenate([[0], cut])
+    size = np.diff(np.concatenate([lo, [b]]))
+    per = -(-size // max(1, threads))
+    count = -(-size // per)
+    group = np.repeat(np.arange(size.size), count)
+    part = np.arange(group.size) - np.repeat(np.cumsum(count) - count, count)
+    start = lo[group] + part * per[group]
+    end = np.minimum(start + per[group], lo[group] + size[group])
+    return order.astype(np.int64), np.stack([start, end], axis=1).astype(np.int64)
 
 
 PARALLEL_MIN_GAMES = 8

@@ -49,6 +49,7 @@ from numba import njit, prange, types
 from numba.extending import intrinsic
 
 from swarmgames.game.meanfield_compiled import POOL_LOCK
+from swarmgames.missions.coverage.distinct import DistinctGames, distinct_games
 from swarmgames.missions.coverage.signal import SignalModel
 from swarmgames.missions.coverage.window import (
     RoiRaster,
@@ -521,6 +522,10 @@ class CoveragePairs:
         Which robot each variable is (``2 * member + is_virtual``); with it, :meth:`shared`
         ranks every game's variables by id and names the games that hold the same
         variables in another order.
+    repeats : DistinctGames, optional
+        The games that hold the same robots in the same states as an earlier one, when the
+        potentials found them for the unary already (the same robots, states, next states
+        and valid actions); :meth:`shared` finds them otherwise.
     """
 
     points: np.ndarray
@@ -532,6 +537,7 @@ class CoveragePairs:
     crowd: np.float32
     weight: np.ndarray
     ids: np.ndarray | None = None
+    repeats: DistinctGames | None = None
 
     def _consts(self):
         return (self.scale, self.offset, self.d02, self.inv_sep, self.crowd, self.weight)
@@ -568,23 +574,25 @@ class CoveragePairs:
         bit. None without ids."""
         if self.ids is None:
             return None
-        from swarmgames.missions.coverage.distinct import distinct_games
-
         b, k = self.ids.shape
         order = self._ranking()
         rank = np.empty_like(order)
         rank[np.arange(b)[:, None], order] = np.arange(k)
         head = np.arange(b)
-        weight = np.broadcast_to(self.weight[:, None], (b, k))
         valid_vars = self.valid.any(axis=2)
-        same = distinct_games(self.ids, valid_vars, self.points, self.valid, weight)
+        same = self.repeats
+        if same is None:
+            weight = np.broadcast_to(self.weight[:, None], (b, k))
+            same = distinct_games(self.ids, valid_vars, self.points, self.valid, weight)
         if same is not None:
             src = same.source
             cand = same.games[src.max(axis=1) // k]
             # A variable must hold its head's rank too (ids repeated inside a game would
-            # break ties by position): otherwise the game keeps its own table.
+            # break ties by position), and the game its head's weight: otherwise the game
+            # keeps its own table.
             agree = (rank == rank[cand[:, None], np.maximum(src, 0) % k]) | ~valid_vars
-            head = np.where(agree.all(axis=1), cand, head)
+            ok = agree.all(axis=1) & (self.weight[cand] == self.weight)
+            head = np.where(ok, cand, head)
         return head, rank
 
     def ranked_table(self, games: np.ndarray) -> np.ndarray:
@@ -611,4 +619,5 @@ class CoveragePairs:
             valid=self.valid[games],
             weight=self.weight[games],
             ids=None if self.ids is None else self.ids[games],
+            repeats=None,
         )

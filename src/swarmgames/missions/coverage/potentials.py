@@ -187,6 +187,7 @@ class CoveragePotentials:
     last_integrate_s: float = field(default=0.0, init=False)
     _raster: RoiRaster | None = field(default=None, init=False, repr=False)
     _last_fields: tuple | None = field(default=None, init=False, repr=False)
+    _last_repeats: tuple | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.separation_mode not in ("pairwise", "unary"):
@@ -245,7 +246,7 @@ class CoveragePotentials:
             out = self._integral(mask, amask, states, nxt, ids)
             out -= self._crowding(mask, states, nxt)
         else:
-            out = self._shared_integral(mask, amask, states, nxt, ids)
+            out = self._shared_integral(batch, mask, amask, states, nxt, ids)
         out[~amask] = 0.0
         self.last_integrate_s = time.perf_counter() - t0
         return out
@@ -260,13 +261,25 @@ class CoveragePotentials:
         self._full_grid(out, mask, amask, states, nxt)
         return out
 
-    def _shared_integral(self, mask, amask, states, nxt, ids, rows=None) -> np.ndarray:
-        """:meth:`_integral`, computed once for every group of games that hold the same
-        robots in the same states (:mod:`~swarmgames.missions.coverage.distinct`: the
-        integral does not depend on the order of a game's variables), bit for bit."""
+    def _repeats(self, batch, mask, amask, states, nxt, ids):
+        """The games of ``batch`` that hold the same robots in the same states as an earlier
+        one (:func:`~swarmgames.missions.coverage.distinct.distinct_games` over the states,
+        next states and valid actions), or None; kept for the batch last asked about, whose
+        unary, pairwise table and pair source all use it."""
+        last = self._last_repeats
+        if last is not None and last[0] is batch:
+            return last[1]
         from swarmgames.missions.coverage.distinct import distinct_games
 
         same = None if ids is None else distinct_games(ids, mask, states, nxt, amask)
+        self._last_repeats = (batch, same)
+        return same
+
+    def _shared_integral(self, batch, mask, amask, states, nxt, ids, rows=None) -> np.ndarray:
+        """:meth:`_integral`, computed once for every group of games that hold the same
+        robots in the same states (:meth:`_repeats`: the integral does not depend on the
+        order of a game's variables), bit for bit."""
+        same = self._repeats(batch, mask, amask, states, nxt, ids)
         if same is None:
             return self._integral(mask, amask, states, nxt, ids, rows)
         g = same.games
@@ -291,7 +304,7 @@ class CoveragePotentials:
         ids = _state_ids(batch)
         owner = np.zeros(mask.shape, dtype=bool)
         owner[:, 0] = True
-        out = self._shared_integral(mask, amask, states, nxt, ids, rows=owner)[:, 0]
+        out = self._shared_integral(batch, mask, amask, states, nxt, ids, rows=owner)[:, 0]
         out[~amask[:, 0]] = 0.0
         return out
 
@@ -503,6 +516,7 @@ class CoveragePotentials:
                 np.broadcast_to(np.asarray(weights, dtype=np.float32), mask.shape[:1])
             ),
             ids=_state_ids(batch),
+            repeats=self._batch_repeats(batch),
         )
 
     def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
@@ -520,19 +534,19 @@ class CoveragePotentials:
         :math:`|p|^2 + |q|^2 - 2 p \\cdot q` in float64 on coordinates relative to the game's
         first position, and the logarithm in float32."""
         dtype = np.dtype(dtype)
-        ids = _state_ids(batch)
-        if dtype == np.float64 and ids is not None:
-            from swarmgames.missions.coverage.distinct import distinct_games
-
-            mask = np.asarray(batch.mask, dtype=bool)
-            amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
-            same = distinct_games(
-                ids, mask, np.asarray(batch.states)[..., :3],
-                np.asarray(batch.next_states)[..., :3], amask,
-            )  # fmt: skip
+        if dtype == np.float64:
+            same = self._batch_repeats(batch)
             if same is not None:
                 return same.expand_pairs(self._pair_table(batch.select(same.games), dtype))
         return self._pair_table(batch, dtype)
+
+    def _batch_repeats(self, batch):
+        """:meth:`_repeats` of a batch, from its fields."""
+        mask = np.asarray(batch.mask, dtype=bool)
+        amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+        states = np.asarray(batch.states, dtype=float)[..., :3]
+        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+        return self._repeats(batch, mask, amask, states, nxt, _state_ids(batch))
 
     def _pair_table(self, batch, dtype) -> np.ndarray:
         """:meth:`pair_table` of every game of ``batch``, each computed."""
