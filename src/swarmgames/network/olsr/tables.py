@@ -77,11 +77,21 @@ class KeyedTable:
             return
         if not found.any() and (keys.size < 2 or bool(np.all(keys[1:] > keys[:-1]))):
             # Sorted keys, all new: merge them in, without sorting the whole table again.
-            self.keys = np.insert(self.keys, idx, keys)
+            # Their places in the merged table are idx + their rank (idx is non-decreasing),
+            # the same for every column.
+            at = idx + np.arange(keys.size)
+            old = np.ones(self.keys.size + keys.size, dtype=bool)
+            old[at] = False
+
+            def merged(col, add):
+                out = np.empty(old.size, dtype=col.dtype)
+                out[at] = add
+                out[old] = col
+                return out
+
+            self.keys = merged(self.keys, keys)
             for name, col in self.cols.items():
-                add = values.get(name, -np.inf)
-                add = np.broadcast_to(np.asarray(add, dtype=float), keys.shape)
-                self.cols[name] = np.insert(col, idx, add)
+                self.cols[name] = merged(col, np.asarray(values.get(name, -np.inf), float))
             return
         all_keys = np.concatenate([self.keys, keys[new]])
         order = np.argsort(all_keys, kind="stable")
