@@ -56,18 +56,17 @@ class DistinctGames:
         out[self.source < 0] = fill
         return out
 
-    def expand_pairs(self, tables: np.ndarray) -> np.ndarray:
-        """Every game's pairwise table, (B, K, A, K, A), from ``tables`` (R, K, A, K, A) of
-        the computed games: ``out[b, k, :, l, :]`` is the entry of the variables that ``k``
-        and ``l`` are in ``b``'s computed game (at padding, a copy of a valid entry)."""
+    def expand_pairs(self, tables: np.ndarray) -> None:
+        """Fill every game's pairwise table in ``tables`` (B, K, A, K, A), in place, from the
+        computed games' (already there): ``tables[b, k, :, l, :]`` becomes the entry of the
+        variables that ``k`` and ``l`` are in ``b``'s computed game (at padding, a copy of a
+        valid entry). The computed games are left as they are."""
         b, k = self.source.shape
         src = np.maximum(self.source, 0)
-        games = src.max(axis=1) // k
+        head = self.games[src.max(axis=1) // k]
         var = np.where(self.source >= 0, src % k, 0)
-        out = np.empty((b, *tables.shape[1:]), dtype=tables.dtype)
-        for g in range(b):
-            out[g] = tables[games[g]].take(var[g], axis=0).take(var[g], axis=2)
-        return out
+        for g in np.flatnonzero(head != np.arange(b)):
+            tables[g] = tables[head[g]].take(var[g], axis=0).take(var[g], axis=2)
 
 
 def distinct_games(ids: np.ndarray, mask: np.ndarray, *values: np.ndarray) -> DistinctGames | None:

@@ -434,18 +434,21 @@ class CoveragePotentials:
     def _crowding_on(self) -> bool:
         return self.separation_m > 0 and self.separation_cost_db > 0
 
-    def _add_pair_crowding(self, out: np.ndarray, batch) -> None:
+    def _add_pair_crowding(self, out: np.ndarray, batch, games=None) -> None:
         """Add the symmetrised pairwise crowding penalty, divided by the pairwise weight, to
         ``out`` (B, K*A, K*A) in place:
         :math:`-2 c_{sep} \\sum_g p_g a^2 \\max(0, 1 - |S_k(a) - S_l(c)| / d_{sep})^2 /
         \\alpha_b`.
 
         Only variable pairs closer than :math:`d_{sep} + 2 s` (``s`` the longest move) can be
-        penalised, so the (A, A) blocks of those pairs only are computed."""
+        penalised, so the (A, A) blocks of those pairs only are computed; ``games``: of those
+        games only (default all)."""
         B, K, A = np.asarray(batch.action_mask).shape
         scale = 2.0 * self.separation_cost_db * self.roi.mass / self.alpha_b
         table = out.reshape(B, K, A, K, A)
-        for gb, gk, gl, pen in crowding_blocks(batch, self.separation_m):  # pen: (P, A, A)
+        sub = batch if games is None else batch.select(games)
+        for gb, gk, gl, pen in crowding_blocks(sub, self.separation_m):  # pen: (P, A, A)
+            gb = gb if games is None else games[gb]
             table[gb, gk, :, gl, :] -= (scale * pen).astype(out.dtype)
 
     def pairwise(self, batch) -> np.ndarray:
@@ -534,11 +537,15 @@ class CoveragePotentials:
         :math:`|p|^2 + |q|^2 - 2 p \\cdot q` in float64 on coordinates relative to the game's
         first position, and the logarithm in float32."""
         dtype = np.dtype(dtype)
-        if dtype == np.float64:
-            same = self._batch_repeats(batch)
-            if same is not None:
-                return same.expand_pairs(self._pair_table(batch.select(same.games), dtype))
-        return self._pair_table(batch, dtype)
+        if dtype != np.float64:
+            return self._pair_table(batch, dtype)
+        same = self._batch_repeats(batch)
+        if same is None:
+            return self._pair_table(batch, dtype)
+        # The first game of every group is computed in place, the others copied from it.
+        out = self._pair_table(batch, dtype, games=same.games)
+        same.expand_pairs(out)
+        return out
 
     def _batch_repeats(self, batch):
         """:meth:`_repeats` of a batch, from its fields."""
@@ -548,8 +555,9 @@ class CoveragePotentials:
         nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
         return self._repeats(batch, mask, amask, states, nxt, _state_ids(batch))
 
-    def _pair_table(self, batch, dtype) -> np.ndarray:
-        """:meth:`pair_table` of every game of ``batch``, each computed."""
+    def _pair_table(self, batch, dtype, games=None) -> np.ndarray:
+        """:meth:`pair_table` of every game of ``batch``, each computed; ``games`` (float64
+        only): of those games only, the others' rows left unset."""
         nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
         B, K, A = nxt.shape[:3]
         pts = nxt.reshape(B, K * A, 3)
@@ -587,9 +595,12 @@ class CoveragePotentials:
         # A game whose (K A)² table alone exceeds the chunk is done in blocks of rows (one
         # K = 300 game: 58 MB per temporary otherwise); every entry is computed alike.
         rows = K * A if step > 1 else max(1, self.chunk_elems // 4 // max(1, K * A))
-        for lo in range(0, B, step):
-            hi = min(B, lo + step)
-            p = pts[lo:hi]
+        todo = np.arange(B) if games is None else np.asarray(games)
+        for lo in range(0, todo.size, step):
+            at = todo[lo : lo + step]
+            if at[-1] - at[0] + 1 == at.size:  # a run of games: write in place
+                at = slice(int(at[0]), int(at[-1]) + 1)
+            p = pts[at]
             for r0 in range(0, K * A, rows):
                 q = p[:, r0 : r0 + rows]
                 diff = q[:, :, None, 0] - p[:, None, :, 0]
@@ -598,7 +609,10 @@ class CoveragePotentials:
                     diff = q[:, :, None, c] - p[:, None, :, c]
                     d2 += diff * diff
                 val = sig.power_sq(d2.astype(dtype, copy=False), dtype=dtype.type)
-                np.add(val, val, out=out[lo:hi, r0 : r0 + rows])
+                if isinstance(at, slice):
+                    np.add(val, val, out=out[at, r0 : r0 + rows])
+                else:
+                    out[at, r0 : r0 + rows] = val + val
         if self._crowding_on and self.separation_mode == "pairwise":
-            self._add_pair_crowding(out, batch)
+            self._add_pair_crowding(out, batch, games)
         return out.reshape(B, K, A, K, A)
