@@ -75,3 +75,21 @@ def test_sorted_contains_dense_and_binary_search_agree(span):
     expect = np.isin(query, keys)
     assert np.array_equal(sorted_contains(keys, query), expect)
     assert np.array_equal(sorted_contains(keys, query[:5]), expect[:5])  # a small query
+
+
+def test_many_sorted_lookups_walk_the_table_and_agree_with_a_search():
+    rng = np.random.default_rng(3)
+    t = KeyedTable(("expiry",))
+    table_keys = np.unique(rng.integers(0, 10**9, 5_000))
+    t.upsert(table_keys, expiry=1.0)
+    query = np.sort(np.concatenate([rng.integers(-5, 10**9 + 5, 150_000), table_keys[::7]]))
+    assert query.size > tables._WALK_MIN
+    idx, found = t.find(query)
+    assert np.array_equal(idx, np.searchsorted(table_keys, query))
+    assert np.array_equal(found, np.isin(query, table_keys)) and found.sum() >= table_keys[::7].size
+    # And the merge of as many new keys keeps the table sorted, with their values.
+    new = np.setdiff1d(query, table_keys)
+    t.upsert(new, expiry=np.arange(new.size, dtype=float))
+    assert np.array_equal(t.keys, np.union1d(table_keys, new))
+    assert np.array_equal(t.get("expiry", new), np.arange(new.size, dtype=float))
+    assert np.all(t.get("expiry", table_keys) == 1.0)

@@ -5,17 +5,23 @@ each with an expiry time. Here every node's set is stored in one table for the w
 tuple is identified by an ``int64`` key that packs its node indices (for example
 ``owner * N + neighbour``) and its fields are parallel ``float64`` columns. Keys are kept sorted,
 so look-ups are ``searchsorted`` and updates are vectorised merges: no per-tuple Python objects.
+The two passes a dense swarm repeats over tens of millions of 2-hop tuples, membership in a
+flag array and the merge of a HELLO round's new tuples, are compiled loops (Numba).
 """
 
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 __all__ = ["DENSE_LIMIT", "KeySet", "KeyedTable", "first_per_key", "sorted_contains"]
 
 #: Largest key range (N * N, i.e. N = 3 000 robots) for which dense per-pair arrays are used
 #: instead of sorted keys (about 150 MB of working arrays at the limit).
 DENSE_LIMIT = 9_000_000
+
+#: Sorted look-ups of at least this many keys walk the table once instead of searching it.
+_WALK_MIN = 100_000
 
 
 class KeyedTable:
@@ -42,6 +48,12 @@ class KeyedTable:
     def find(self, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Positions of ``keys`` in the table and a mask of which were found."""
         keys = np.asarray(keys, dtype=np.int64)
+        if keys.ndim == 1 and keys.size > _WALK_MIN and bool(np.all(keys[1:] >= keys[:-1])):
+            # Many sorted keys (a HELLO round's 2-hop tuples): one walk along the table.
+            idx = np.empty(keys.size, dtype=np.int64)
+            found = np.empty(keys.size, dtype=bool)
+            _walk_positions(self.keys, keys, idx, found)
+            return idx, found
         idx = np.searchsorted(self.keys, keys)
         found = idx < self.keys.size
         found[found] = self.keys[idx[found]] == keys[found]
@@ -80,18 +92,10 @@ class KeyedTable:
             # Their places in the merged table are idx + their rank (idx is non-decreasing),
             # the same for every column.
             at = idx + np.arange(keys.size)
-            old = np.ones(self.keys.size + keys.size, dtype=bool)
-            old[at] = False
-
-            def merged(col, add):
-                out = np.empty(old.size, dtype=col.dtype)
-                out[at] = add
-                out[old] = col
-                return out
-
-            self.keys = merged(self.keys, keys)
+            self.keys = _merged(self.keys, keys, at)
             for name, col in self.cols.items():
-                self.cols[name] = merged(col, np.asarray(values.get(name, -np.inf), float))
+                add = np.broadcast_to(np.asarray(values.get(name, -np.inf), float), keys.shape)
+                self.cols[name] = _merged(col, np.ascontiguousarray(add), at)
             return
         all_keys = np.concatenate([self.keys, keys[new]])
         order = np.argsort(all_keys, kind="stable")
@@ -168,7 +172,51 @@ def sorted_contains(sorted_keys: np.ndarray, query: np.ndarray) -> np.ndarray:
     if top <= DENSE_LIMIT and top <= 16 * query.size:
         member = np.zeros(top, dtype=bool)
         member[sorted_keys] = True
-        inside = (query >= 0) & (query < top)
-        return member[np.where(inside, query, 0)] & inside
+        out = np.empty(query.shape, dtype=bool)
+        _flagged(member, np.ascontiguousarray(query, dtype=np.int64).reshape(-1), out.reshape(-1))
+        return out
     idx = np.minimum(np.searchsorted(sorted_keys, query), sorted_keys.size - 1)
     return sorted_keys[idx] == query
+
+
+@njit(cache=True, nogil=True)
+def _flagged(flags, query, out):
+    """``out[i] = flags[query[i]]``, False outside ``[0, len(flags))``."""
+    top = flags.size
+    for i in range(query.size):
+        q = query[i]
+        out[i] = q >= 0 and q < top and flags[q]
+
+
+@njit(cache=True, nogil=True)
+def _merge_into(old, new, at, out):
+    j = 0
+    i = 0
+    for p in range(out.size):
+        if j < at.size and at[j] == p:
+            out[p] = new[j]
+            j += 1
+        else:
+            out[p] = old[i]
+            i += 1
+
+
+def _merged(old: np.ndarray, new: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """``old`` with ``new`` inserted so that ``new[j]`` lands at ``at[j]`` (increasing)."""
+    out = np.empty(old.size + new.size, dtype=old.dtype)
+    _merge_into(old, new.astype(old.dtype, copy=False), at, out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _walk_positions(table, query, idx, found):
+    """``idx = np.searchsorted(table, query)`` for an increasing ``query``, in one walk, and
+    whether each key is in ``table``."""
+    i = 0
+    n = table.size
+    for j in range(query.size):
+        q = query[j]
+        while i < n and table[i] < q:
+            i += 1
+        idx[j] = i
+        found[j] = i < n and table[i] == q
