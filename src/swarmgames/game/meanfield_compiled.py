@@ -19,6 +19,17 @@ number of threads. Against the numpy engines it agrees to rounding (about 1e-15 
 float64). The softmax and the KL divergence are plain sequential loops; the KL is accumulated
 in float64 whatever the table precision.
 
+Wide sums
+---------
+In float32, the rounding of a long pair field (a dense game: K = 300 and A = 9 give 2 700
+terms) makes the marginals dither around the fixed point: the KL between sweeps stays near
+4e-6 and 45 % of the games of a contracting 300-UAV swarm ran to ``max_iter`` (200 sweeps)
+where float64 tables converge in 28–54. Games of at least :data:`WIDE_SUM_MIN` valid entries
+therefore accumulate their pair fields in float64 (the products of float32 values are exact
+there) and take the logits and the softmax in float64, keeping Q in float32: they converge
+as in float64. The choice depends on the game alone, so results stay independent of the
+batch and of the thread count; smaller games and float64 tables are unchanged.
+
 Shared tables
 -------------
 A game may read its pairwise table in another variable order (``perm``): the sweeps update
@@ -74,16 +85,32 @@ def _softmax_into(z, q, off):
 
 @njit(cache=True, nogil=True, fastmath={"reassoc", "nsz"})
 def _dot(row, q, n):
-    """Σ_i row[i] q[i] over the first n entries (vectorised; order fixed by n)."""
+    """Σ_i row[i] q[i] over the first n entries in the table's precision (vectorised; order
+    fixed by n)."""
     s = row.dtype.type(0.0)
     for i in range(n):
         s += row[i] * q[i]
     return s
 
 
+@njit(cache=True, nogil=True, fastmath={"reassoc", "nsz"})
+def _dot_wide(row, q, n):
+    """:func:`_dot` accumulated in float64 whatever the table precision (the same as it in
+    float64)."""
+    s = 0.0
+    for i in range(n):
+        s += np.float64(row[i]) * np.float64(q[i])
+    return s
+
+
+WIDE_SUM_MIN = 1024
+"""Games of at least this many valid entries (valid variables × actions) sum their pair
+fields, logits and softmax in float64 when their table is float32 (:func:`_dot_wide`)."""
+
+
 @njit(cache=True, nogil=True)
 def _solve_games(task, games, logits, w, table, perm, nv, has_pair, beta, delta, max_iter,
-                 q_out, its, kls):  # fmt: skip
+                 wide_min, q_out, its, kls):  # fmt: skip
     """Mean-field sweeps of the games ``games[task[0]:task[1]]``, which read one table and
     have the same number of valid variables, each until KL < delta or ``max_iter`` sweeps.
 
@@ -104,7 +131,9 @@ def _solve_games(task, games, logits, w, table, perm, nv, has_pair, beta, delta,
     dt = logits.dtype
     q = np.zeros((n_g, n), dt)
     q_old = np.empty((n_g, n), dt)
+    wide = n >= wide_min
     z = np.empty(a, dt)
+    z_wide = np.empty(a, np.float64)
     tw = table[g0] * np.int64(has_pair)  # the dummy table of a batch without pairwise term
     wt = w[tw]
     wf = wt.reshape((wt.shape[0] * wt.shape[1], wt.shape[2] * wt.shape[3]))
@@ -115,9 +144,14 @@ def _solve_games(task, games, logits, w, table, perm, nv, has_pair, beta, delta,
         its[g] = 0
         kls[g] = np.inf
         for k in range(nv[g]):
-            for x in range(a):
-                z[x] = logits[g, k, x]
-            _softmax_into(z, q[i], perm[g, k] * a)
+            if wide:
+                for x in range(a):
+                    z_wide[x] = logits[g, k, x]
+                _softmax_into(z_wide, q[i], perm[g, k] * a)
+            else:
+                for x in range(a):
+                    z[x] = logits[g, k, x]
+                _softmax_into(z, q[i], perm[g, k] * a)
     while left > 0:
         for i in range(n_g):
             if live[i]:
@@ -130,6 +164,13 @@ def _solve_games(task, games, logits, w, table, perm, nv, has_pair, beta, delta,
                 g = games[lo + i]
                 qi = q[i]
                 off = perm[g, k] * a
+                if wide:
+                    for x in range(a):
+                        z_wide[x] = logits[g, k, x]
+                        if has_pair:
+                            z_wide[x] = _dot_wide(wf[off + x], qi, n) * beta + z_wide[x]
+                    _softmax_into(z_wide, qi, off)
+                    continue
                 for x in range(a):
                     if has_pair:
                         # β·(Σ W Q) + β·U, the order of the numpy engines.
@@ -228,6 +269,7 @@ def solve_batch(
     max_iter: int,
     table: np.ndarray | None = None,
     perm: np.ndarray | None = None,
+    wide_min: int = WIDE_SUM_MIN,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Solve B games whose valid variables are a prefix of each row.
 
@@ -251,6 +293,8 @@ def solve_batch(
         update the game's variables in the game's order, but each pair field is summed in
         the table's order: a game's results depend on its table's order (not on the other
         games reading the same table).
+    wide_min : int, default :data:`WIDE_SUM_MIN`
+        Float32 games of at least this many valid entries sum in float64 ("Wide sums").
 
     Returns
     -------
@@ -285,6 +329,7 @@ def solve_batch(
         dt.type(beta),
         float(delta),
         int(max_iter),
+        int(wide_min),
         q,
         its,
         kls,
