@@ -758,8 +758,9 @@ def compare(
     type=click.IntRange(min=0, max=100_000),
     default=300,
     show_default=True,
-    help="Robots of the default-scenario take-off benchmarks (0 = none); the dense case, every "
-    "robot within range, runs without --quick.",
+    help="Robots of the default-scenario take-off benchmarks (0 = none); the dense cases, every "
+    "robot within range (the default scenario's and the float32 dense_stage of the targets), "
+    "run without --quick.",
 )
 @click.option(
     "--mission",

@@ -749,10 +749,11 @@ def run_suite(
         Threads of the windowed integral (``coverage.workers``); default: 2 where the machine
         has two cores or more (the numbers of ``docs/bench.md``), else 1.
     takeoff : int, optional
-        Robots of the ``takeoff`` benchmarks (default :data:`TAKEOFF_ROBOTS`; 0 = none).
+        Robots of the ``takeoff`` and ``dense_stage`` benchmarks (default
+        :data:`TAKEOFF_ROBOTS`; 0 = none).
     dense : bool, optional
-        Also the dense take-off case, every robot within range (default: not ``quick``;
-        about a minute at 300 robots).
+        Also the dense cases, every robot within range: the default scenario's take-off and
+        the ``dense_stage`` record (default: not ``quick``; about a minute at 300 robots).
     mission : int, optional
         Robots of the whole-mission record (``coverage-large`` with every output; default
         :data:`~swarmgames.bench.mission.MISSION_ROBOTS`, none when ``quick``; 0 = none).
