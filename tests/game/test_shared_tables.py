@@ -211,3 +211,21 @@ def test_refinement_on_shared_ranked_tables_ends_at_a_pure_ne_whatever_the_batch
     for g in range(lazy.shape[0]):
         alone = refine_profiles(lazy.select([g]), start[[g]])
         assert np.array_equal(alone.profile[0], together.profile[g])
+
+
+def test_games_in_step_give_the_same_results_on_any_number_of_threads():
+    """The games of a group are split into one task per thread; each game's arithmetic is
+    its own, so the split changes nothing."""
+    import numba
+
+    _, lazy, _ = _permuted(6, np.float32)
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = mean_field(lazy, 5.0, engine="compiled")
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        many = mean_field(lazy, 5.0, engine="compiled")
+    finally:
+        numba.set_num_threads(before)
+    assert np.array_equal(one.marginals, many.marginals)
+    assert np.array_equal(one.iterations, many.iterations)
