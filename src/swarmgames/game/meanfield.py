@@ -68,7 +68,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from swarmgames.arrays import freeze_fields
-from swarmgames.game.potentials import GamePayoffs, _check_empty_actions, shared_tables
+from swarmgames.game.potentials import (
+    GamePayoffs,
+    _check_empty_actions,
+    ranked_chunks,
+    shared_tables,
+)
 from swarmgames.names import ENGINES
 
 __all__ = [
@@ -334,18 +339,12 @@ def _mean_field_compiled(
             for g in (np.arange(lo, min(b, lo + step)) for lo in range(0, b, step))
         )
     else:
-        head, rank = (np.asarray(v, dtype=np.int64) for v in same)
-        heads, table_of = np.unique(head, return_inverse=True)
-        table_of = table_of.reshape(-1)
+        head, rank = same
         # Variable k of a (reordered) game is variable rank[b, order[b, k]] of its table.
         perm = rank if prefix else np.take_along_axis(rank, order, axis=1)
-
-        def part(h):
-            games = np.flatnonzero((table_of >= h[0]) & (table_of <= h[-1]))
-            return games, source.ranked_table(heads[h]), table_of[games] - h[0], perm[games]
-
         parts = (
-            part(np.arange(lo, min(heads.size, lo + step))) for lo in range(0, heads.size, step)
+            (g, w, table, perm[g])
+            for g, w, table in ranked_chunks(source, head, np.arange(b), step)
         )
     q = np.zeros((b, k_vars, a), dtype=logits.dtype)
     its = np.zeros(b, dtype=np.int64)

@@ -103,6 +103,22 @@ def _dot_wide(row, q, n):
     return s
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _update_into(z, logits, wf, off, q, n, beta, has_pair, wide):
+    """One variable's update: ``z`` = β·(Σ W Q) + β·U for each action (the order of the
+    numpy engines; without ``has_pair`` the logits alone), summed by :func:`_dot_wide` when
+    ``wide`` (``z`` float64) and by :func:`_dot` otherwise (``z`` in the table's dtype), then
+    ``q[off : off + A] = softmax(z)``."""
+    for x in range(z.shape[0]):
+        if not has_pair:
+            z[x] = logits[x]
+        elif wide:
+            z[x] = _dot_wide(wf[off + x], q, n) * beta + logits[x]
+        else:
+            z[x] = _dot(wf[off + x], q, n) * beta + logits[x]
+    _softmax_into(z, q, off)
+
+
 WIDE_SUM_MIN = 1024
 """Games of at least this many valid entries (valid variables × actions) sum their pair
 fields, logits and softmax in float64 when their table is float32 (:func:`_dot_wide`)."""
@@ -143,15 +159,12 @@ def _solve_games(task, games, logits, w, table, perm, nv, has_pair, beta, delta,
         g = games[lo + i]
         its[g] = 0
         kls[g] = np.inf
-        for k in range(nv[g]):
+        for k in range(nv[g]):  # Q from the unary alone
+            off = perm[g, k] * a
             if wide:
-                for x in range(a):
-                    z_wide[x] = logits[g, k, x]
-                _softmax_into(z_wide, q[i], perm[g, k] * a)
+                _update_into(z_wide, logits[g, k], wf, off, q[i], n, beta, False, True)
             else:
-                for x in range(a):
-                    z[x] = logits[g, k, x]
-                _softmax_into(z, q[i], perm[g, k] * a)
+                _update_into(z, logits[g, k], wf, off, q[i], n, beta, False, False)
     while left > 0:
         for i in range(n_g):
             if live[i]:
@@ -162,22 +175,11 @@ def _solve_games(task, games, logits, w, table, perm, nv, has_pair, beta, delta,
                 if not live[i]:
                     continue
                 g = games[lo + i]
-                qi = q[i]
                 off = perm[g, k] * a
                 if wide:
-                    for x in range(a):
-                        z_wide[x] = logits[g, k, x]
-                        if has_pair:
-                            z_wide[x] = _dot_wide(wf[off + x], qi, n) * beta + z_wide[x]
-                    _softmax_into(z_wide, qi, off)
-                    continue
-                for x in range(a):
-                    if has_pair:
-                        # β·(Σ W Q) + β·U, the order of the numpy engines.
-                        z[x] = _dot(wf[off + x], qi, n) * beta + logits[g, k, x]
-                    else:
-                        z[x] = logits[g, k, x]
-                _softmax_into(z, qi, off)
+                    _update_into(z_wide, logits[g, k], wf, off, q[i], n, beta, has_pair, True)
+                else:
+                    _update_into(z, logits[g, k], wf, off, q[i], n, beta, has_pair, False)
         for i in range(n_g):
             if not live[i]:
                 continue

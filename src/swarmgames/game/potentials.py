@@ -57,6 +57,7 @@ __all__ = [
     "TablePotentials",
     "evaluate_payoffs",
     "pair_weights",
+    "ranked_chunks",
     "shared_tables",
 ]
 
@@ -136,13 +137,27 @@ class PairSource(Protocol):
 
 
 def shared_tables(source) -> tuple[np.ndarray, np.ndarray] | None:
-    """``source.shared()`` (``(head, rank)``) when ``source`` is a
+    """``source.shared()``, ``(head, rank)`` as int64 arrays, when ``source`` is a
     :class:`PairSource` that ranks its games' variables (``shared`` and ``ranked_table``),
     else None."""
     fn, ranked = getattr(source, "shared", None), getattr(source, "ranked_table", None)
-    if not (callable(fn) and callable(ranked)):
+    same = fn() if callable(fn) and callable(ranked) else None
+    if same is None:
         return None
-    return fn()
+    head, rank = same
+    return np.asarray(head, dtype=np.int64), np.asarray(rank, dtype=np.int64)
+
+
+def ranked_chunks(source, head: np.ndarray, games: np.ndarray, per: int):
+    """The ranked tables of the groups of ``games`` (game indices; ``head`` from
+    :func:`shared_tables`), ``per`` groups at a time: yields ``(sel, tables, table)``, the
+    positions in ``games`` of a chunk's games, their groups' ranked tables
+    (``source.ranked_table``) and the table of each of them (an index into ``tables``)."""
+    heads, table_of = np.unique(head[games], return_inverse=True)
+    table_of = table_of.reshape(-1)
+    for lo in range(0, heads.size, per):
+        sel = np.flatnonzero((table_of >= lo) & (table_of < lo + per))
+        yield sel, source.ranked_table(heads[lo : lo + per]), table_of[sel] - lo
 
 
 @dataclass(frozen=True)

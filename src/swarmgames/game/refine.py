@@ -49,7 +49,7 @@ import numpy as np
 from swarmgames.arrays import freeze_fields
 from swarmgames.game import meanfield
 from swarmgames.game.equilibrium import _check_profile, _fields, deviation_gains
-from swarmgames.game.potentials import GamePayoffs, shared_tables
+from swarmgames.game.potentials import GamePayoffs, ranked_chunks, shared_tables
 from swarmgames.names import REFINE_METHODS
 
 __all__ = ["REFINE_MAX_SWEEPS", "REFINE_METHODS", "Refinement", "refine_profiles"]
@@ -188,17 +188,13 @@ def _ranked_sweeps(payoffs, x, todo, budget, same, per):
     per group of games holding the same variables, chunk by chunk of groups."""
     from swarmgames.game.refine_compiled import compiled_sweeps
 
-    head, rank = (np.asarray(v, dtype=np.int64) for v in same)
-    heads, table_of = np.unique(head[todo], return_inverse=True)
-    table_of = table_of.reshape(-1)
+    head, rank = same
     sweeps = np.zeros(todo.size, dtype=np.int64)
     moves = np.zeros(todo.size, dtype=np.int64)
-    for lo in range(0, heads.size, per):
-        sel = np.flatnonzero((table_of >= lo) & (table_of < lo + per))
-        w = payoffs.pair_source.ranked_table(heads[lo : lo + per])
+    for sel, w, table in ranked_chunks(payoffs.pair_source, head, todo, per):
         sweeps[sel], moves[sel] = compiled_sweeps(
             payoffs.unary, w, payoffs.action_mask, payoffs.mask, x, todo[sel], budget[sel],
-            table=table_of[sel] - lo, perm=rank,
+            table=table, perm=rank,
         )  # fmt: skip
         del w  # this chunk's tables are freed before the next ones are built
     return sweeps, moves

@@ -465,7 +465,7 @@ def solve_stage(
     n_act = int(action_model.n_actions)
     groups = size_groups(sizes, _check_buckets(buckets), n_act, on_demand=on_demand)
     build_s = time.perf_counter() - t0
-    rec = _Record(n, int(action_model.n_actions))
+    rec = _Record(n, n_act)
     integrate_s = solve_s = refine_s = 0.0
     batches, sols = [], []
     for owners in groups:

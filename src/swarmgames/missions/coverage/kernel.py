@@ -41,6 +41,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numba
 import numpy as np
@@ -560,7 +561,8 @@ class CoveragePairs:
             _pair_at(prof, self.points, self.valid, *self._consts(), out)
         return out.reshape(b, k, k, a).transpose(0, 2, 3, 1)
 
-    def _ranking(self) -> np.ndarray:
+    @cached_property
+    def _order(self) -> np.ndarray:
         """Every game's variables sorted by id, valid first: ``order`` (B, K)."""
         key = np.where(self.valid.any(axis=2), self.ids, np.iinfo(np.int64).max)
         return np.argsort(key, axis=1, kind="stable")
@@ -571,13 +573,14 @@ class CoveragePairs:
         games whose valid variables are the same robots with the same next positions,
         valid actions and weight share the ranked table of the first of them. Each entry
         of W is computed from its two points alone, so their ranked tables are equal bit for
-        bit. None without ids."""
-        if self.ids is None:
-            return None
+        bit. None without ids; computed once per source."""
+        return None if self.ids is None else self._shared
+
+    @cached_property
+    def _shared(self) -> tuple[np.ndarray, np.ndarray]:
         b, k = self.ids.shape
-        order = self._ranking()
-        rank = np.empty_like(order)
-        rank[np.arange(b)[:, None], order] = np.arange(k)
+        rank = np.empty_like(self._order)
+        rank[np.arange(b)[:, None], self._order] = np.arange(k)
         head = np.arange(b)
         valid_vars = self.valid.any(axis=2)
         same = self.repeats
@@ -600,7 +603,7 @@ class CoveragePairs:
         A) float32, a new array: the table of the game's points reordered, entry by entry
         equal to :meth:`table`'s."""
         games = np.ascontiguousarray(games, dtype=np.int64)
-        order = self._ranking()[games]
+        order = self._order[games]
         rows = games[:, None]
         points = np.ascontiguousarray(self.points[rows, order])
         valid = np.ascontiguousarray(self.valid[rows, order])

@@ -114,6 +114,16 @@ def _state_ids(batch) -> np.ndarray | None:
     return 2 * np.asarray(members, dtype=np.int64) + np.asarray(virtual, dtype=bool)
 
 
+def _batch_arrays(batch) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``mask`` (B, K), ``amask`` (B, K, A) (the valid actions of valid variables), and the
+    positions of the states (B, K, 3) and next states (B, K, A, 3) of a batch."""
+    mask = np.asarray(batch.mask, dtype=bool)
+    amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+    states = np.asarray(batch.states, dtype=float)[..., :3]
+    nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+    return mask, amask, states, nxt
+
+
 @dataclass(eq=False)
 class CoveragePotentials:
     """Unary (eq. 5) and pairwise (eq. 6) potentials of the coverage mission.
@@ -233,10 +243,7 @@ class CoveragePotentials:
     def unary(self, batch) -> np.ndarray:
         """:math:`\\phi_u(k, x_k)` of eq. 5 for every game, variable and action, (B, K, A)."""
         t0 = time.perf_counter()
-        mask = np.asarray(batch.mask, dtype=bool)
-        amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
-        states = np.asarray(batch.states, dtype=float)[..., :3]
-        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+        mask, amask, states, nxt = _batch_arrays(batch)
         if amask.shape[0] == 0:
             self.last_integrate_s = time.perf_counter() - t0
             return np.zeros(amask.shape)
@@ -261,7 +268,7 @@ class CoveragePotentials:
         self._full_grid(out, mask, amask, states, nxt)
         return out
 
-    def _repeats(self, batch, mask, amask, states, nxt, ids):
+    def _repeats(self, batch):
         """The games of ``batch`` that hold the same robots in the same states as an earlier
         one (:func:`~swarmgames.missions.coverage.distinct.distinct_games` over the states,
         next states and valid actions), or None; kept for the batch last asked about, whose
@@ -271,7 +278,11 @@ class CoveragePotentials:
             return last[1]
         from swarmgames.missions.coverage.distinct import distinct_games
 
-        same = None if ids is None else distinct_games(ids, mask, states, nxt, amask)
+        ids = _state_ids(batch)
+        same = None
+        if ids is not None:
+            mask, amask, states, nxt = _batch_arrays(batch)
+            same = distinct_games(ids, mask, states, nxt, amask)
         self._last_repeats = (batch, same)
         return same
 
@@ -279,7 +290,7 @@ class CoveragePotentials:
         """:meth:`_integral`, computed once for every group of games that hold the same
         robots in the same states (:meth:`_repeats`: the integral does not depend on the
         order of a game's variables), bit for bit."""
-        same = self._repeats(batch, mask, amask, states, nxt, ids)
+        same = self._repeats(batch)
         if same is None:
             return self._integral(mask, amask, states, nxt, ids, rows)
         g = same.games
@@ -295,10 +306,7 @@ class CoveragePotentials:
         compiled = self.signal_floor_dbm is not None and self._compiled
         if not compiled or (self._crowding_on and self.separation_mode == "unary"):
             return self.unary(batch)[:, 0]
-        mask = np.asarray(batch.mask, dtype=bool)
-        amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
-        states = np.asarray(batch.states, dtype=float)[..., :3]
-        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+        mask, amask, states, nxt = _batch_arrays(batch)
         if amask.shape[0] == 0:
             return np.zeros(amask.shape[::2])
         ids = _state_ids(batch)
@@ -519,7 +527,7 @@ class CoveragePotentials:
                 np.broadcast_to(np.asarray(weights, dtype=np.float32), mask.shape[:1])
             ),
             ids=_state_ids(batch),
-            repeats=self._batch_repeats(batch),
+            repeats=self._repeats(batch),
         )
 
     def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
@@ -539,21 +547,13 @@ class CoveragePotentials:
         dtype = np.dtype(dtype)
         if dtype != np.float64:
             return self._pair_table(batch, dtype)
-        same = self._batch_repeats(batch)
+        same = self._repeats(batch)
         if same is None:
             return self._pair_table(batch, dtype)
         # The first game of every group is computed in place, the others copied from it.
         out = self._pair_table(batch, dtype, games=same.games)
         same.expand_pairs(out)
         return out
-
-    def _batch_repeats(self, batch):
-        """:meth:`_repeats` of a batch, from its fields."""
-        mask = np.asarray(batch.mask, dtype=bool)
-        amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
-        states = np.asarray(batch.states, dtype=float)[..., :3]
-        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
-        return self._repeats(batch, mask, amask, states, nxt, _state_ids(batch))
 
     def _pair_table(self, batch, dtype, games=None) -> np.ndarray:
         """:meth:`pair_table` of every game of ``batch``, each computed; ``games`` (float64
