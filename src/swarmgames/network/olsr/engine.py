@@ -75,7 +75,14 @@ from swarmgames.network.links import LinkGraph
 from swarmgames.network.olsr import tables, wire
 from swarmgames.network.olsr.mpr import select_mprs
 from swarmgames.network.olsr.routing import compute_routes
-from swarmgames.network.olsr.tables import KeyedTable, KeySet, first_per_key, sorted_contains
+from swarmgames.network.olsr.tables import (
+    KeyedTable,
+    KeySet,
+    first_per_key,
+    live_at,
+    sorted_contains,
+    split_keys,
+)
 from swarmgames.network.olsr.traffic import ControlTraffic
 from swarmgames.network.parameters import OlsrParameters
 
@@ -310,9 +317,8 @@ class OlsrEngine:
         """
         n = self._nn
         clock = self._clock(t)
-        self.two_hop.keep(self.two_hop.cols["expiry"] > clock[self.two_hop.keys // (n * n)])
-        for table, base in ((self.topology, n), (self.lingering, n * n)):
-            table.keep(table.cols["expiry"] > clock[table.keys // base])
+        for table, base in ((self.two_hop, n * n), (self.topology, n), (self.lingering, n * n)):
+            table.keep(live_at(table.keys, base, table.cols["expiry"], clock))
 
     # ------------------------------------------------------------------ state views
     def _clock(self, t: float) -> np.ndarray:
@@ -332,10 +338,10 @@ class OlsrEngine:
         sym_ok = self.links.cols["sym"] > clock[owner]
         s_owner, s_neigh = owner[sym_ok], lk[sym_ok] % n
         s_created = self.links.cols["created"][sym_ok]
-        t_owner, rest = np.divmod(self.two_hop.keys, n * n)
-        th_ok = self.two_hop.cols["expiry"] > clock[t_owner]
-        t_owner, rest = t_owner[th_ok], rest[th_ok]
-        t_neigh, t_x = np.divmod(rest, n)
+        th = self.two_hop
+        t_owner, t_neigh, t_x = split_keys(
+            th.keys[live_at(th.keys, n * n, th.cols["expiry"], clock)], n
+        )
         return s_owner, s_neigh, s_created, t_owner, t_neigh, t_x
 
     def routes(self, t: float | None = None, max_hops: int | None = None):
@@ -598,13 +604,13 @@ class _RoundTopology:
     def __init__(self, engine: OlsrEngine, clock: np.ndarray) -> None:
         n = engine._nn
         table = engine.topology
-        ok = table.cols["expiry"] > clock[table.keys // n]
+        ok = live_at(table.keys, n, table.cols["expiry"], clock)
         self.keys = table.keys[ok]
         self.round = table.cols["round"][ok].astype(np.int64)
         self.rounds = engine._tc_rounds
         self.n = n
         lk = engine.lingering.keys
-        ok = engine.lingering.cols["expiry"] > clock[lk // (n * n)]
+        ok = live_at(lk, n * n, engine.lingering.cols["expiry"], clock)
         self.linger_last = lk[ok] // n  # sorted owner * N + last
         self.linger_dest = lk[ok] % n
         self.lingers = KeySet(int(n * n))
