@@ -15,6 +15,7 @@ SRC = Path(swarmgames.__file__).parent
 
 #: Shared modules with no swarmgames layer below them.
 BASE = (
+    "swarmgames.allocator",
     "swarmgames.arrays",
     "swarmgames.errors",
     "swarmgames.names",

@@ -26,6 +26,7 @@ _LAZY = {
     "ScenarioConfig": "swarmgames.config",
     "reproduce_fig2": "swarmgames.experiments.fig2",
     "sweep": "swarmgames.experiments.sweep",
+    "reuse_freed_memory": "swarmgames.allocator",
 }
 
 

@@ -15,6 +15,7 @@ from typing import Any, NoReturn
 import click
 
 from swarmgames import __version__
+from swarmgames.allocator import reuse_freed_memory
 from swarmgames.errors import (
     ConfigError,
     InputDataError,
@@ -906,5 +907,7 @@ def missions_check(name: str, overrides: tuple[str, ...], robots: int) -> None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Console-script entry point."""
+    """Console-script entry point. The process keeps freed memory for reuse
+    (:func:`swarmgames.allocator.reuse_freed_memory`) unless ``SWARMGAMES_MALLOC=system``."""
+    reuse_freed_memory()
     cli.main(args=argv, prog_name="swarmgames")

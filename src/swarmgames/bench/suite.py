@@ -63,6 +63,7 @@ from typing import Any
 
 import numpy as np
 
+from swarmgames.allocator import reusing_freed_memory
 from swarmgames.bench.game import bench_local_game
 from swarmgames.bench.mission import MISSION_ROBOTS, mission_record
 from swarmgames.bench.stage import StageBench
@@ -236,7 +237,8 @@ class BenchResult:
             notes.append(
                 f"default scenario, N = {r['n_robots']:,}, {what} (K ≈ "
                 f"{r['neighbours_mean'] + 1:.0f}): {_fmt_s(r['median_s'])} per stage, peak "
-                f"{r['peak_mb']:.0f} MiB traced (estimate {r['estimate_mb']:.0f} MiB)"
+                f"{r['peak_mb']:.0f} MiB traced (estimate {r['estimate_mb']:.0f} MiB, with the "
+                f"network's tables {r['estimate_network_mb']:.0f} MiB)"
             )
         for r in self._of("dense_stage"):
             notes.append(
@@ -477,8 +479,11 @@ def _dense_stage_record(n: int, seed: int, workers: int) -> dict:
 def _takeoff_record(n: int, dense: bool, repeats: int, seed: int) -> dict:
     """A stage of the default scenario with ``n`` robots from its default take-off disc
     (``dense``: the 25 m disc whatever N, so every robot is within range of every other):
-    the traced peak of the first stage, the median time of it and ``repeats`` more, and the
-    stage estimate of :func:`~swarmgames.sim.memory.estimate_memory`."""
+    the traced peak of the first stage (its OLSR advance included), the median time of it and
+    ``repeats`` more, and the estimates of :func:`~swarmgames.sim.memory.estimate_memory`:
+    the stage's (``estimate_mb``), and the run's without the interpreter and the stages kept
+    (``estimate_network_mb``: the stage and the network's tables, what the traced peak
+    holds)."""
     from swarmgames.config import resolve_scenario
     from swarmgames.sim.memory import estimate_memory
 
@@ -497,6 +502,8 @@ def _takeoff_record(n: int, dense: bool, repeats: int, seed: int) -> dict:
         sb.step()
         samples.append(time.perf_counter() - t0)
     est = estimate_memory(sb.config, sb.mission, whole_run=False)
+    run = estimate_memory(sb.config, sb.mission)
+    beside = {"interpreter and libraries", "stages kept and written"}
     med = sb.parts.medians()
     return {
         "benchmark": "takeoff",
@@ -510,6 +517,7 @@ def _takeoff_record(n: int, dense: bool, repeats: int, seed: int) -> dict:
         "takeoff_radius_m": float(sb.mission.takeoff.radius_m),
         "peak_mb": peak / 2**20,
         "estimate_mb": est.total_bytes / 2**20,
+        "estimate_network_mb": sum(b for name, b in run.parts if name not in beside) / 2**20,
         "estimate_vars": est.n_vars,
         "rss_max_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
     }
@@ -872,6 +880,7 @@ def run_suite(
             "wall_s": time.perf_counter() - t_start,
             "scenario": "scaled_config: 70 000 m2 per UAV, 20 m cells, floor -100 dBm",
             "workers": int(workers),
+            "reuse_freed_memory": reusing_freed_memory(),
         },
     )
     if out is not None:

@@ -28,6 +28,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from swarmgames.allocator import reuse_freed_memory
 from swarmgames.config import ScenarioConfig
 from swarmgames.errors import BackendUnavailableError, RunFolderError
 from swarmgames.sim.signals import INTERRUPT_SIGNALS, signals_interrupt
@@ -192,9 +193,11 @@ def _in_process(tasks: Sequence[RunTask], on_done: OnDone) -> bool:
 
 def _init_worker(stop, pids) -> None:
     """Start a pool worker: it stops only when the sweep tells it (SIGTERM while it runs a
-    task, the stop event before it starts one), not on the terminal's Ctrl-C."""
+    task, the stop event before it starts one), not on the terminal's Ctrl-C; and it keeps
+    freed memory for reuse, as the ``swarmgames`` command does."""
     global _STOP
     _STOP = stop
+    reuse_freed_memory()
     for sig in (signal.SIGINT, *INTERRUPT_SIGNALS):
         signal.signal(sig, signal.SIG_IGN)
     pids.put(os.getpid())
