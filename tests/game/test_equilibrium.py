@@ -196,3 +196,46 @@ def test_global_regret_from_the_owner_rows_is_the_same(dtype):
     whole = deviation_gains(pay, np.where(pay.mask, joint[np.maximum(members, 0)], 0))[:, 0]
     np.testing.assert_array_equal(global_regret(rows, joint), whole)
     np.testing.assert_array_equal(global_regret(pay, joint), whole)
+
+
+class _RowsSource:
+    """A held table served as a pair source whose rows at a profile are laid out as the
+    coverage source's: ``(B, K, K A)`` rows of each variable's profile point, viewed as
+    (B, K, A, K)."""
+
+    def __init__(self, w):
+        self.w = w
+
+    def at(self, profile):
+        b, k, a = self.w.shape[:3]
+        at_l = np.take_along_axis(self.w, profile[:, None, None, :, None], axis=4)[..., 0]
+        rows = np.ascontiguousarray(at_l.transpose(0, 3, 1, 2)).reshape(b, k, k * a)
+        return rows.reshape(b, k, k, a).transpose(0, 2, 3, 1)
+
+
+@pytest.mark.parametrize("layout", ["held", "rows"])
+@pytest.mark.parametrize("with_players", [False, True])
+def test_profile_measures_equal_the_payoff_and_the_regret_alone(layout, with_players):
+    """One evaluation of the pairwise rows at the profile serves both measurements, bit for
+    bit, whether the rows come from a held table or from a source laid out by variable."""
+    from swarmgames.game import profile_measures
+    from swarmgames.game.potentials import GamePayoffs
+
+    batch, pot = random_games(11, 24, 7, 5)
+    pay = evaluate_payoffs(batch, pot, 1.0, 1.0)
+    w = np.nan_to_num(pay.pair)
+    if layout == "rows":
+        pay = GamePayoffs(
+            pay.unary, None, pay.action_mask, pay.mask, pay.owner, pay.members, _RowsSource(w)
+        )
+        strides = pay.pair_at(np.zeros((24, 7), np.int64)).strides
+        assert strides[3] > strides[1]  # l outermost
+    rng = np.random.default_rng(2)
+    x = np.argmax(np.where(pay.action_mask, rng.random(pay.action_mask.shape), -1), axis=2)
+    players = (rng.random((24, 7)) < 0.6) & pay.mask if with_players else None
+    payoff, regret = profile_measures(pay, x, players)
+    assert np.array_equal(payoff, profile_payoff(pay, x, players))
+    assert np.array_equal(regret, local_regret(pay, x))
+    held = evaluate_payoffs(batch, pot, 1.0, 1.0)
+    np.testing.assert_allclose(payoff, profile_payoff(held, x, players), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(regret, local_regret(held, x), rtol=1e-12, atol=1e-12)

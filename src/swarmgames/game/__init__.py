@@ -17,6 +17,7 @@ from swarmgames.game.equilibrium import (
     global_regret,
     local_regret,
     owner_regret,
+    profile_measures,
     profile_payoff,
     pure_equilibria,
 )
@@ -122,6 +123,7 @@ __all__ = [
     "outside_means",
     "owner_regret",
     "plan_stage",
+    "profile_measures",
     "profile_payoff",
     "pure_equilibria",
     "random_profiles",

@@ -44,6 +44,7 @@ __all__ = [
     "owner_deviations",
     "owner_payoffs",
     "owner_regret",
+    "profile_measures",
     "profile_payoff",
     "pure_equilibria",
 ]
@@ -68,12 +69,44 @@ def _check_profile(payoffs: GamePayoffs, profile) -> np.ndarray:
     return x
 
 
-def _fields(payoffs: GamePayoffs, x: np.ndarray) -> np.ndarray:
-    """E[M | X_k = a] with every other variable at x: (B, K, A), up to terms free of x_k."""
+def _fields(payoffs: GamePayoffs, x: np.ndarray, at_l: np.ndarray | None = None) -> np.ndarray:
+    """E[M | X_k = a] with every other variable at x: (B, K, A), up to terms free of x_k
+    (``at_l``: ``payoffs.pair_at(x)`` when the caller has it)."""
     field = payoffs.unary.astype(np.float64)
     if payoffs.has_pair:
-        field = field + payoffs.pair_at(x).sum(axis=3)
+        field = field + (payoffs.pair_at(x) if at_l is None else at_l).sum(axis=3)
     return field
+
+
+def _gains(payoffs: GamePayoffs, x: np.ndarray, at_l: np.ndarray | None = None) -> np.ndarray:
+    field = _fields(payoffs, x, at_l)
+    best = np.where(payoffs.action_mask, field, -np.inf).max(axis=2)
+    cur = np.take_along_axis(field, x[:, :, None], axis=2)[:, :, 0]
+    return np.where(payoffs.mask, np.maximum(best - cur, 0.0), 0.0)
+
+
+def _at_profile(at_l: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``at_l[b, k, x[b, k], l]``, (B, K, K) contiguous, from ``at_l`` (B, K, A, K) in either
+    memory layout: gathered along whichever axis is contiguous (a pair source's rows hold the
+    last axis outermost), the same values either way."""
+    if at_l.strides[3] <= at_l.strides[1]:
+        return np.take_along_axis(at_l, x[:, :, None, None], axis=2)[:, :, 0]
+    by_l = np.take_along_axis(at_l.transpose(0, 3, 1, 2), x[:, None, :, None], axis=3)[..., 0]
+    return np.ascontiguousarray(by_l.transpose(0, 2, 1))
+
+
+def _payoff(payoffs: GamePayoffs, x: np.ndarray, players, at_l: np.ndarray | None = None):
+    unary = np.take_along_axis(payoffs.unary, x[:, :, None], axis=2)[:, :, 0]
+    if players is not None:
+        players = np.asarray(players, dtype=bool)
+        unary = np.where(players, unary, 0.0)
+    total = unary.sum(axis=1)
+    if payoffs.has_pair:
+        at_kl = _at_profile(payoffs.pair_at(x) if at_l is None else at_l, x)  # (B, K, K)
+        if players is not None:
+            at_kl = np.where(players[:, :, None] | players[:, None, :], at_kl, 0.0)
+        total = total + 0.5 * at_kl.sum(axis=(1, 2))
+    return total
 
 
 def deviation_gains(payoffs: GamePayoffs, profile) -> np.ndarray:
@@ -90,11 +123,7 @@ def deviation_gains(payoffs: GamePayoffs, profile) -> np.ndarray:
     ndarray, shape (B, K)
         ``max_a g_k(a; x) >= 0``; 0 at padding.
     """
-    x = _check_profile(payoffs, profile)
-    field = _fields(payoffs, x)
-    best = np.where(payoffs.action_mask, field, -np.inf).max(axis=2)
-    cur = np.take_along_axis(field, x[:, :, None], axis=2)[:, :, 0]
-    return np.where(payoffs.mask, np.maximum(best - cur, 0.0), 0.0)
+    return _gains(payoffs, _check_profile(payoffs, profile))
 
 
 def local_regret(payoffs: GamePayoffs, profile) -> np.ndarray:
@@ -332,19 +361,21 @@ def profile_payoff(payoffs: GamePayoffs, profile, players=None) -> np.ndarray:
     pairs with at least one of them (a game with context variables, ``virtual_mean =
     "exact"``: the payoff of the deciding members, with their terms against the context but
     without the context's own constants)."""
+    return _payoff(payoffs, _check_profile(payoffs, profile), players)
+
+
+def profile_measures(payoffs: GamePayoffs, profile, players=None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`profile_payoff` and :func:`local_regret` of the same ``profile`` from one
+    evaluation of the pairwise rows at it (``payoffs.pair_at``, the costly part: B K² A
+    entries), each equal to what the function alone returns.
+
+    Returns
+    -------
+    payoff, regret : ndarray, shape (B,)
+    """
     x = _check_profile(payoffs, profile)
-    unary = np.take_along_axis(payoffs.unary, x[:, :, None], axis=2)[:, :, 0]
-    if players is not None:
-        players = np.asarray(players, dtype=bool)
-        unary = np.where(players, unary, 0.0)
-    total = unary.sum(axis=1)
-    if payoffs.has_pair:
-        at_l = payoffs.pair_at(x)  # (B, K, A, K)
-        at_kl = np.take_along_axis(at_l, x[:, :, None, None], axis=2)[:, :, 0]  # (B, K, K)
-        if players is not None:
-            at_kl = np.where(players[:, :, None] | players[:, None, :], at_kl, 0.0)
-        total = total + 0.5 * at_kl.sum(axis=(1, 2))
-    return total
+    at_l = payoffs.pair_at(x) if payoffs.has_pair else None
+    return _payoff(payoffs, x, players, at_l), _gains(payoffs, x, at_l).max(axis=1)
 
 
 def enumerate_payoffs(

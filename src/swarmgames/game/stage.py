@@ -49,9 +49,8 @@ from swarmgames.game.colocated import separate_colocated
 from swarmgames.game.equilibrium import (
     OwnerPayoffs,
     global_regret,
-    local_regret,
     owner_deviations,
-    profile_payoff,
+    profile_measures,
 )
 from swarmgames.game.expost import expost_games, expost_regret
 from swarmgames.game.local import (
@@ -242,8 +241,7 @@ class _Record:
         """Payoff, local regret and neighbour count of the games of ``owners`` (context
         variables, which decide nothing, are not counted as neighbours)."""
         players = None if batch.is_context is None else batch.players
-        self.payoff[owners] = profile_payoff(pay, profile, players)
-        self.local_regret[owners] = local_regret(pay, profile)
+        self.payoff[owners], self.local_regret[owners] = profile_measures(pay, profile, players)
         self.neighbours[owners] = np.asarray(batch.players).sum(axis=1) - 1
 
     def next_states(self, states, action_model) -> np.ndarray:
