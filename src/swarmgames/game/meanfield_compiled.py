@@ -104,19 +104,24 @@ def _dot_wide(row, q, n):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _update_into(z, logits, wf, off, q, n, beta, has_pair, wide):
+def _update_into(z, logits, wf, off, q, qd, n, beta, has_pair, wide):
     """One variable's update: ``z`` = β·(Σ W Q) + β·U for each action (the order of the
     numpy engines; without ``has_pair`` the logits alone), summed by :func:`_dot_wide` when
     ``wide`` (``z`` float64) and by :func:`_dot` otherwise (``z`` in the table's dtype), then
-    ``q[off : off + A] = softmax(z)``."""
+    ``q[off : off + A] = softmax(z)``. The sums read Q from ``qd``: ``q`` itself, or when
+    ``wide`` its float64 copy, kept equal here (each entry converted once per update, not
+    once per action and game step)."""
     for x in range(z.shape[0]):
         if not has_pair:
             z[x] = logits[x]
         elif wide:
-            z[x] = _dot_wide(wf[off + x], q, n) * beta + logits[x]
+            z[x] = _dot_wide(wf[off + x], qd, n) * beta + logits[x]
         else:
-            z[x] = _dot(wf[off + x], q, n) * beta + logits[x]
+            z[x] = _dot(wf[off + x], qd, n) * beta + logits[x]
     _softmax_into(z, q, off)
+    if wide:
+        for x in range(z.shape[0]):
+            qd[off + x] = q[off + x]
 
 
 WIDE_SUM_MIN = 1024
@@ -148,6 +153,7 @@ def _solve_games(task, games, logits, w, table, perm, nv, has_pair, beta, delta,
     q = np.zeros((n_g, n), dt)
     q_old = np.empty((n_g, n), dt)
     wide = n >= wide_min
+    qd = np.zeros((n_g, n) if wide else (1, 1), np.float64)
     z = np.empty(a, dt)
     z_wide = np.empty(a, np.float64)
     tw = table[g0] * np.int64(has_pair)  # the dummy table of a batch without pairwise term
@@ -162,9 +168,9 @@ def _solve_games(task, games, logits, w, table, perm, nv, has_pair, beta, delta,
         for k in range(nv[g]):  # Q from the unary alone
             off = perm[g, k] * a
             if wide:
-                _update_into(z_wide, logits[g, k], wf, off, q[i], n, beta, False, True)
+                _update_into(z_wide, logits[g, k], wf, off, q[i], qd[i], n, beta, False, True)
             else:
-                _update_into(z, logits[g, k], wf, off, q[i], n, beta, False, False)
+                _update_into(z, logits[g, k], wf, off, q[i], q[i], n, beta, False, False)
     while left > 0:
         for i in range(n_g):
             if live[i]:
@@ -177,9 +183,11 @@ def _solve_games(task, games, logits, w, table, perm, nv, has_pair, beta, delta,
                 g = games[lo + i]
                 off = perm[g, k] * a
                 if wide:
-                    _update_into(z_wide, logits[g, k], wf, off, q[i], n, beta, has_pair, True)
+                    _update_into(
+                        z_wide, logits[g, k], wf, off, q[i], qd[i], n, beta, has_pair, True
+                    )
                 else:
-                    _update_into(z, logits[g, k], wf, off, q[i], n, beta, has_pair, False)
+                    _update_into(z, logits[g, k], wf, off, q[i], q[i], n, beta, has_pair, False)
         for i in range(n_g):
             if not live[i]:
                 continue
@@ -331,7 +339,7 @@ def solve_batch(
         dt.type(beta),
         float(delta),
         int(max_iter),
-        int(wide_min),
+        int(wide_min) if dt == np.float32 else np.iinfo(np.int64).max,  # float64: as wide
         q,
         its,
         kls,
