@@ -87,12 +87,17 @@ def _gains(payoffs: GamePayoffs, x: np.ndarray, at_l: np.ndarray | None = None) 
 
 def _at_profile(at_l: np.ndarray, x: np.ndarray) -> np.ndarray:
     """``at_l[b, k, x[b, k], l]``, (B, K, K) contiguous, from ``at_l`` (B, K, A, K) in either
-    memory layout: gathered along whichever axis is contiguous (a pair source's rows hold the
-    last axis outermost), the same values either way."""
-    if at_l.strides[3] <= at_l.strides[1]:
-        return np.take_along_axis(at_l, x[:, :, None, None], axis=2)[:, :, 0]
-    by_l = np.take_along_axis(at_l.transpose(0, 3, 1, 2), x[:, None, :, None], axis=3)[..., 0]
-    return np.ascontiguousarray(by_l.transpose(0, 2, 1))
+    memory layout, by one flat gather along whichever axes are contiguous (a pair source's
+    rows hold the last axis outermost): the same values either way."""
+    b, k, a, n_l = at_l.shape
+    games = np.arange(b, dtype=np.int64)
+    if at_l.strides[3] > at_l.strides[1]:
+        rows = np.ascontiguousarray(at_l.transpose(0, 3, 1, 2))  # (B, L, K, A): no copy
+        at = (games[:, None] * n_l + np.arange(n_l))[:, :, None] * (k * a)
+        by_l = np.take(rows.reshape(-1), at + (np.arange(k) * a + x)[:, None, :])
+        return np.ascontiguousarray(by_l.transpose(0, 2, 1))
+    at = ((games[:, None] * k + np.arange(k)) * a + x)[:, :, None] * n_l
+    return np.take(np.ascontiguousarray(at_l).reshape(-1), at + np.arange(n_l))
 
 
 def _payoff(payoffs: GamePayoffs, x: np.ndarray, players, at_l: np.ndarray | None = None):
