@@ -215,3 +215,26 @@ def test_the_owner_is_never_a_virtual_robot(mode):
         virtual_mean=mode,
     )
     assert not one.is_virtual.any()
+
+
+@pytest.mark.parametrize("shape", [(7,), (30, 300), (5, 4, 3)])
+def test_pad_rows_compiled_copy_equals_the_numpy_gather(monkeypatch, shape):
+    """Both ways of padding CSR rows (numpy below PAD_COMPILED_MIN rows, the compiled copy
+    above) give the same array: rows of any length, empty rows and -1 rows included."""
+    from swarmgames.game import local
+    from swarmgames.game.local_compiled import compiled_pad_rows
+
+    rng = np.random.default_rng(len(shape))
+    lengths = rng.integers(0, 40, 500)
+    lengths[:3] = 0
+    indptr = np.concatenate([[0], np.cumsum(lengths)])
+    indices = rng.integers(0, 10_000, indptr[-1]).astype(np.int32)
+    rows = rng.integers(-1, 500, shape)
+    monkeypatch.setattr(local, "PAD_COMPILED_MIN", 10**9)
+    expect = local.pad_rows(indptr, indices, rows)
+    got = compiled_pad_rows(indptr, indices, rows)
+    assert got.dtype == expect.dtype == np.int32 and np.array_equal(got, expect)
+    monkeypatch.setattr(local, "PAD_COMPILED_MIN", 0)
+    assert np.array_equal(local.pad_rows(indptr, indices, rows), expect)
+    none = np.full(shape, -1)
+    assert np.array_equal(compiled_pad_rows(indptr, indices, none), np.full((*shape, 1), -1))

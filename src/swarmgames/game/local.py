@@ -270,6 +270,10 @@ class LocalViews:
     context_states: np.ndarray | None = None
 
 
+PAD_COMPILED_MIN = 4096
+"""Rows asked of :func:`pad_rows` from which the compiled copy is used."""
+
+
 def pad_rows(indptr: np.ndarray, indices: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """CSR rows ``rows`` (any shape) as a ``rows.shape + (L,)`` array, -1 padded; -1 rows are
     empty (L = the longest row asked for, at least 1).
@@ -278,7 +282,14 @@ def pad_rows(indptr: np.ndarray, indices: np.ndarray, rows: np.ndarray) -> np.nd
     --------
     >>> pad_rows(np.array([0, 2, 3]), np.array([5, 6, 7]), np.array([1, 0])).tolist()
     [[7, -1], [5, 6]]
+
+    Many rows (:data:`PAD_COMPILED_MIN` entries, a dense swarm's neighbourhoods) are copied
+    by a compiled loop (:mod:`~swarmgames.game.local_compiled`), with the same result.
     """
+    if rows.size >= PAD_COMPILED_MIN:
+        from swarmgames.game.local_compiled import compiled_pad_rows
+
+        return compiled_pad_rows(indptr, indices, rows)
     flat = rows.ravel()
     ok = flat >= 0
     entry, row_id = csr_gather(indptr, flat[ok])
