@@ -81,3 +81,19 @@ def swarm(n: int = 12, seed: int = 0):
     """``n`` robots uniform in a 200 m square and their 70 m disk-graph snapshot."""
     pos = np.random.default_rng(seed).uniform(0, 200, size=(n, 2))
     return pos, disk_snapshot(pos, 70.0)
+
+
+def curie_weiss(
+    k: int = 600, coupling: float = 0.97, offset: float = 5.0, seed: int = 0, levels: int = 2
+):
+    """A Curie-Weiss (mean-field Ising) game of ``k`` spins (D. Koller and N. Friedman,
+    Probabilistic Graphical Models, 2009, section 11.5), each of ``levels`` values evenly
+    spaced in [-1, 1] (critical coupling 1 for two levels, about 1.8 for four), as float32
+    logits (1, k, levels) at β = 1 and its pair table (1, k, levels, k, levels): a large
+    constant term (``offset``) cancels in every softmax but not in a float32 sum."""
+    spin = np.linspace(-1.0, 1.0, levels)
+    rng = np.random.default_rng(seed)
+    unary = (0.001 + 0.01 * rng.normal(size=(1, k, 1))) * spin + offset * k
+    pair = np.full((1, k, levels, k, levels), offset) + (coupling / k) * spin[:, None, None] * spin
+    pair[0, np.arange(k), :, np.arange(k), :] = 0.0
+    return unary.astype(np.float32), pair.astype(np.float32)

@@ -23,7 +23,7 @@ from swarmgames.game.meanfield import compiled_available
 from swarmgames.game.meanfield_compiled import PARALLEL_MIN_GAMES
 from swarmgames.game.potentials import GamePayoffs
 from swarmgames.game.solvers import MeanFieldSolver
-from tests.game.helpers import random_games
+from tests.game.helpers import curie_weiss, random_games
 
 
 def _payoffs(seed, b, k, a, dtype=np.float64, alpha_b=0.5, **kw):
@@ -223,15 +223,10 @@ def test_long_float32_pair_fields_sum_in_float64_and_converge_as_float64_does():
     KL test takes three times the sweeps; summed wide they converge with the float64 table."""
     from swarmgames.game.meanfield_compiled import WIDE_SUM_MIN, solve_batch
 
-    k, j, offset = 600, 0.97, 5.0
-    spin = np.array([-1.0, 1.0])
-    rng = np.random.default_rng(0)
-    unary = (0.001 + 0.01 * rng.normal(size=(1, k, 1))) * spin + offset * k
-    pair = np.full((1, k, 2, k, 2), offset) + (j / k) * spin[:, None, None] * spin
-    pair[0, np.arange(k), :, np.arange(k), :] = 0.0
+    k = 600
+    lg32, w32 = curie_weiss(k)
     nv = np.array([k])
     assert k * 2 >= WIDE_SUM_MIN
-    lg32, w32 = unary.astype(np.float32), pair.astype(np.float32)
     # The reference: the same (float32) values solved in float64.
     f64 = solve_batch(lg32.astype(float), w32.astype(float), nv, 1.0, 1e-6, 200)
     wide = solve_batch(lg32, w32, nv, 1.0, 1e-6, 200)

@@ -53,6 +53,14 @@ product, whose blocking depends on the vector length: across different widths K 
 then agree to rounding (~1e-15 relative), not bit for bit. The engines agree with one another
 to rounding.
 
+Wide sums
+---------
+A float32 game of at least :data:`WIDE_SUM_MIN` valid entries (valid variables × actions, a
+dense swarm's game) sums its pair fields in float64 in every engine, and takes its logits
+and softmax in float64 before rounding Q to float32: summed in float32, the rounding of
+thousands of terms makes the marginals dither around the fixed point by more than the KL
+test's δ, and such games ran to ``max_iter``. Whether a game is wide depends on it alone.
+
 References
 ----------
 .. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
@@ -78,6 +86,7 @@ from swarmgames.names import ENGINES
 
 __all__ = [
     "ENGINES",
+    "WIDE_SUM_MIN",
     "MeanFieldResult",
     "compiled_available",
     "masked_softmax",
@@ -87,6 +96,10 @@ __all__ = [
 ]
 
 """Values of ``mean_field(engine=...)``."""
+
+WIDE_SUM_MIN = 1024
+"""Float32 games of at least this many valid entries (valid variables × actions) sum their
+pair fields, logits and softmax in float64 (module docstring, "Wide sums")."""
 
 
 def compiled_available() -> bool:
@@ -201,18 +214,20 @@ class MeanFieldResult:
         freeze_fields(self)
 
 
-def _pair_field(w: np.ndarray, q: np.ndarray, k: int, sequential: bool) -> np.ndarray:
-    """Σ_l Σ_c W[:, k, x, l, c] Q_l(c) for every game and action x, (B, A)."""
+def _pair_field(w: np.ndarray, q: np.ndarray, k: int, sequential: bool, wide: bool = False):
+    """Σ_l Σ_c W[:, k, x, l, c] Q_l(c) for every game and action x, (B, A); in float64 from
+    float64 copies of the operands when ``wide`` (each float32 product is then exact)."""
     nw, _, a = q.shape
+    cast = (lambda x: x.astype(np.float64)) if wide else (lambda x: x)
     if not sequential:
         # One batched matrix-vector product per game over the flattened (l, c) axis (BLAS).
         m = w.shape[3] * a
-        return np.matmul(w[:, k].reshape(nw, a, m), q.reshape(nw, m, 1))[:, :, 0]
+        return np.matmul(cast(w[:, k].reshape(nw, a, m)), cast(q.reshape(nw, m, 1)))[:, :, 0]
     # Element-wise products accumulated over c in a fixed order, then a sequential sum over l:
     # padding adds exact zeros, so the result does not depend on K.
-    acc = w[:, k, :, :, 0] * q[:, None, :, 0]
+    acc = cast(w[:, k, :, :, 0]) * cast(q[:, None, :, 0])
     for c in range(1, a):
-        acc += w[:, k, :, :, c] * q[:, None, :, c]
+        acc += cast(w[:, k, :, :, c]) * cast(q[:, None, :, c])
     return _colsum(acc)
 
 
@@ -238,14 +253,16 @@ def _compact(running: np.ndarray, *arrays):
     return out
 
 
-def _sweep_loop(w, q: np.ndarray, logits: np.ndarray, beta_t, sequential: bool) -> None:
+def _sweep_loop(
+    w, q: np.ndarray, logits: np.ndarray, beta_t, sequential: bool, wide: bool = False
+) -> None:
     """One Gauss-Seidel sweep over the variables, in place on ``q`` (sequential sums, or no
     pairwise table)."""
     for k in range(q.shape[1]):
         if w is not None:
             # β·(Σ_l Σ_c W Q) + β·U, in place on the fresh pair field (same bits as
             # β·U + β·(...): IEEE addition is commutative).
-            z = _pair_field(w, q, k, sequential)
+            z = _pair_field(w, q, k, sequential, wide)
             z *= beta_t
             z += logits[:, k]
         else:
@@ -253,7 +270,7 @@ def _sweep_loop(w, q: np.ndarray, logits: np.ndarray, beta_t, sequential: bool) 
         q[:, k] = _softmax(z)
 
 
-def _blas_sweep(w: np.ndarray, q: np.ndarray, logits: np.ndarray, beta_t):
+def _blas_sweep(w: np.ndarray, q: np.ndarray, logits: np.ndarray, beta_t, wide: bool = False):
     """A Gauss-Seidel sweep with BLAS pair fields over this working set, in place on ``q``.
 
     The same operations, in the same order, as :func:`_pair_field` followed by
@@ -271,12 +288,15 @@ def _blas_sweep(w: np.ndarray, q: np.ndarray, logits: np.ndarray, beta_t):
     m = k_vars * a
     qv = q.reshape(nw, m, 1)
     wv = w.reshape(nw, k_vars, a, m)
-    red = np.empty((nw, 1), dtype=q.dtype)
+    red = np.empty((nw, 1), dtype=np.float64 if wide else q.dtype)
     steps = [(wv[:, k], logits[:, k], q[:, k]) for k in range(k_vars)]
 
     def sweep() -> None:
         for w_k, logits_k, q_k in steps:
-            z = _matmul(w_k, qv)[:, :, 0]
+            if wide:  # float64 copies (module docstring, "Wide sums")
+                z = _matmul(w_k.astype(np.float64), qv.astype(np.float64))[:, :, 0]
+            else:
+                z = _matmul(w_k, qv)[:, :, 0]
             _multiply(z, beta_t, z)
             _add(z, logits_k, z)
             _max_reduce(z, -1, None, red, True)
@@ -426,6 +446,14 @@ def mean_field(
     logits_all = np.where(payoffs.action_mask, beta_t * payoffs.unary, dt.type(-np.inf))
     if engine == "compiled":
         return _mean_field_compiled(payoffs, logits_all, beta_t, delta, max_iter)
+    wide = _wide_games(payoffs)
+    if wide.any() and not wide.all():  # solved apart: whether a game is wide is its own
+        parts = [np.flatnonzero(~wide), np.flatnonzero(wide)]
+        solved = [
+            mean_field(payoffs.select(g), beta, delta, max_iter, engine=engine) for g in parts
+        ]
+        return _gathered(b, parts, solved)
+    wide = bool(wide.any())
     sequential = engine == "sequential"
     w_all = payoffs.pair_table()
     var_mask = payoffs.mask[:, :, None]
@@ -446,13 +474,13 @@ def mean_field(
     running = np.ones(b, dtype=bool)
     owned = False  # whether logits and w are private copies that may be compacted in place
     fast = not sequential and w is not None
-    sweep = _blas_sweep(w, q, logits, beta_t) if fast else None
+    sweep = _blas_sweep(w, q, logits, beta_t, wide) if fast else None
     for it in range(1, int(max_iter) + 1 if b else 0):
         q_old = q.copy()
         if fast:
             sweep()
         else:
-            _sweep_loop(w, q, logits, beta_t, sequential)
+            _sweep_loop(w, q, logits, beta_t, sequential, wide)
         kl = _kl(q_old, q)
         stop = running & ((kl < delta) | (it == max_iter))
         if not stop.any():
@@ -479,5 +507,24 @@ def mean_field(
         else:
             continue
         if fast:
-            sweep = _blas_sweep(w, q, logits, beta_t)
+            sweep = _blas_sweep(w, q, logits, beta_t, wide)
     return MeanFieldResult(out_q, out_it, out_conv, out_kl)
+
+
+def _wide_games(payoffs: GamePayoffs) -> np.ndarray:
+    """Which games sum wide (module docstring, "Wide sums"), (B,) bool."""
+    b, _, a = payoffs.unary.shape
+    if payoffs.unary.dtype != np.float32 or not payoffs.has_pair:
+        return np.zeros(b, dtype=bool)
+    return payoffs.mask.sum(axis=1) * a >= WIDE_SUM_MIN
+
+
+def _gathered(b: int, parts, solved) -> MeanFieldResult:
+    """One result for ``b`` games from the results ``solved`` of the games ``parts``."""
+    first = solved[0]
+    out = [np.zeros((b, *x.shape[1:]), x.dtype) for x in (first.marginals, first.iterations,
+           first.converged, first.kl)]  # fmt: skip
+    for games, res in zip(parts, solved, strict=True):
+        for o, x in zip(out, (res.marginals, res.iterations, res.converged, res.kl), strict=True):
+            o[games] = x
+    return MeanFieldResult(*out)

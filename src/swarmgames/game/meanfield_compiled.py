@@ -63,7 +63,9 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["POOL_LOCK", "solve_batch"]
+from swarmgames.game.meanfield import WIDE_SUM_MIN
+
+__all__ = ["POOL_LOCK", "WIDE_SUM_MIN", "solve_batch"]
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -122,11 +124,6 @@ def _update_into(z, logits, wf, off, q, qd, n, beta, has_pair, wide):
     if wide:
         for x in range(z.shape[0]):
             qd[off + x] = q[off + x]
-
-
-WIDE_SUM_MIN = 1024
-"""Games of at least this many valid entries (valid variables × actions) sum their pair
-fields, logits and softmax in float64 when their table is float32 (:func:`_dot_wide`)."""
 
 
 @njit(cache=True, nogil=True)
