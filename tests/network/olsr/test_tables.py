@@ -115,7 +115,8 @@ def test_keys_split_and_owner_clocks_agree_with_integer_division(n, order):
     assert np.array_equal(high, keys // (n * n))
     assert np.array_equal(mid, keys // n % n)
     assert np.array_equal(low, keys % n)
-    assert np.array_equal((high * n + mid) * n + low, keys)
+    assert high.dtype == mid.dtype == low.dtype == np.int32
+    assert np.array_equal((high.astype(np.int64) * n + mid) * n + low, keys)
     expiry = rng.uniform(0, 10, keys.size)
     clock = rng.uniform(0, 10, n)
     for base in (n, n * n):

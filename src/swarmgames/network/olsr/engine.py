@@ -378,8 +378,9 @@ class OlsrEngine:
         n = self._nn
         sym_keys = s_owner * n + s_neigh
         # Strict 2-hop: relay symmetric, target neither the owner nor one of its neighbours.
-        ok = sorted_contains(sym_keys, t_owner * n + t_neigh)
-        ok &= (t_x != t_owner) & ~sorted_contains(sym_keys, t_owner * n + t_x)
+        base = t_owner.astype(np.int64) * n  # the triples are int32 (split_keys)
+        ok = sorted_contains(sym_keys, base + t_neigh)
+        ok &= (t_x != t_owner) & ~sorted_contains(sym_keys, base + t_x)
         # 2-hop keys are unique, so the triples are too.
         return select_mprs(
             self.n,

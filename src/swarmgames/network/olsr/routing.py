@@ -76,7 +76,7 @@ def compute_routes(
         k2 = th_owner.astype(np.int64) * n + th_two_hop
         relay = th_owner.astype(np.int64) * n + th_neigh
         ok = sorted_contains(k1, relay) & ~sorted_contains(k1, k2) & (th_two_hop != th_owner)
-        k2, nh2 = _first_per_key(k2[ok], np.asarray(th_neigh, dtype=np.int64)[ok])
+        k2, nh2 = _first_per_key(k2[ok], np.asarray(th_neigh)[ok].astype(np.int64))
         keys.append(k2)
         hops.append(np.full(k2.size, 2, dtype=np.int16))
         nexts.append(nh2)
