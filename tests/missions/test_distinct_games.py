@@ -150,3 +150,34 @@ def test_shared_float64_pair_tables_equal_each_game_alone(moved, crowding):
         alone = pot.pair_table(batch.select([b]), np.float64)[0]
         ok = valid[b][:, :, None, None] & valid[b][None, None, :, :]
         assert np.array_equal(shared[b][ok], alone[ok])
+
+
+@pytest.mark.parametrize("moved", [False, True])
+def test_the_next_batch_takes_the_carried_game_bit_for_bit(monkeypatch, moved):
+    """A stage's batches of a dense float64 swarm hold the same game: the second batch takes
+    the first's unary rows and pairwise table (its variables reordered) instead of
+    computing them, and gets what a fresh computation gives, bit for bit. A game that
+    differs (one member seen 1 m off) is still computed."""
+    batch, pot = _dense(9, None, "auto")
+    if moved:
+        batch = _moved(batch, 7)
+    first, second = batch.select(np.arange(4)), batch.select(np.arange(4, 9))
+    fresh = [_dense(9, None, "auto")[1] for _ in range(2)]
+    expect = [(p.unary(b), p.pair_table(b)) for p, b in zip(fresh, (first, second), strict=True)]
+    pot.unary(first), pot.pair_table(first)
+    tables, grids = [], []
+    real_table, real_grid = type(pot)._pair_table, type(pot)._full_grid
+
+    def counted_table(self, b, dtype, games=None):
+        tables.append(None if games is None else len(games))
+        return real_table(self, b, dtype, games)
+
+    def counted_grid(self, out, *args):
+        grids.append(out.shape[0])
+        return real_grid(self, out, *args)
+
+    monkeypatch.setattr(type(pot), "_pair_table", counted_table)
+    monkeypatch.setattr(type(pot), "_full_grid", counted_grid)
+    unary, table = pot.unary(second), pot.pair_table(second)
+    assert np.array_equal(unary, expect[1][0]) and np.array_equal(table, expect[1][1])
+    assert tables == ([1] if moved else []) and grids == [1 if moved else 0]

@@ -24,7 +24,7 @@ import numpy as np
 
 from swarmgames.missions.coverage.window import shared_rows
 
-__all__ = ["DistinctGames", "distinct_games"]
+__all__ = ["CarriedGame", "DistinctGames", "distinct_games"]
 
 
 @dataclass(frozen=True)
@@ -56,17 +56,21 @@ class DistinctGames:
         out[self.source < 0] = fill
         return out
 
-    def expand_pairs(self, tables: np.ndarray) -> None:
+    def expand_pairs(self, tables: np.ndarray, carried: np.ndarray | None = None) -> None:
         """Fill every game's pairwise table in ``tables`` (B, K, A, K, A), in place, from the
         computed games' (already there): ``tables[b, k, :, l, :]`` becomes the entry of the
         variables that ``k`` and ``l`` are in ``b``'s computed game (at padding, a copy of a
-        valid entry). The computed games are left as they are."""
+        valid entry). The computed games are left as they are. With ``carried`` (K, A, K, A),
+        these games are those of :meth:`CarriedGame.match`: game 0 is the carried game,
+        whose table that is, and game ``1 + b`` is ``tables[b]``."""
         b, k = self.source.shape
+        off = 0 if carried is None else 1
         src = np.maximum(self.source, 0)
         head = self.games[src.max(axis=1) // k]
         var = np.where(self.source >= 0, src % k, 0)
         for g in np.flatnonzero(head != np.arange(b)):
-            tables[g] = tables[head[g]].take(var[g], axis=0).take(var[g], axis=2)
+            frm = carried if head[g] < off else tables[head[g] - off]
+            tables[g - off] = frm.take(var[g], axis=0).take(var[g], axis=2)
 
 
 def distinct_games(ids: np.ndarray, mask: np.ndarray, *values: np.ndarray) -> DistinctGames | None:
@@ -126,3 +130,69 @@ def distinct_games(ids: np.ndarray, mask: np.ndarray, *values: np.ndarray) -> Di
     source[rows, order] = rep[:, None] * k + rep_order
     source[~mask] = -1
     return DistinctGames(games=games, source=source)
+
+
+@dataclass(frozen=True)
+class CarriedGame:
+    """One game of a batch and what was computed for it, kept for the stage's next batch.
+
+    A stage splits its games into batches (memory-bounded), and a dense swarm's batches hold
+    the same game again: all N games hold all N robots. The potentials keep the largest
+    group's game and its unary rows, or its pairwise table, so that the next batch's games
+    that hold the same robots in the same states take those values instead of computing
+    them again (bit for bit the same: :func:`distinct_games`).
+
+    Attributes
+    ----------
+    ids : ndarray of int64, shape (1, K)
+    mask : ndarray of bool, shape (1, K)
+    values : tuple of ndarray, each (1, K, ...)
+        As the arguments of :func:`distinct_games`.
+    computed : ndarray, shape (K, ...)
+        The game's values (unary rows (K, A), or its pairwise table (K, A, K, A)).
+    """
+
+    ids: np.ndarray
+    mask: np.ndarray
+    values: tuple[np.ndarray, ...]
+    computed: np.ndarray
+
+    def match(self, ids, mask, *values) -> DistinctGames | None:
+        """:func:`distinct_games` of this game followed by a batch's games (game 0 is this
+        one, game ``1 + b`` the batch's game b); None when the shapes differ, or when no game
+        repeats another."""
+        if np.shape(mask)[1:] != self.mask.shape[1:] or len(values) != len(self.values):
+            return None
+        if any(np.shape(v)[1:] != c.shape[1:] for v, c in zip(values, self.values, strict=True)):
+            return None
+        ids_c, mask_c, values_c = self.joined(ids, mask, *values)
+        return distinct_games(ids_c, mask_c, *values_c)
+
+    def joined(self, ids, mask, *values):
+        """``(ids, mask, values)`` of this game followed by a batch's games."""
+        return (
+            np.concatenate([self.ids, ids]),
+            np.concatenate([self.mask, mask]),
+            tuple(np.concatenate([c, v]) for c, v in zip(self.values, values, strict=True)),
+        )
+
+    @staticmethod
+    def largest(same: DistinctGames, ids, mask, values, computed, first: int = 0):
+        """The game of the largest group among the games ``first`` onwards of ``same``
+        (groups of at least two), as a :class:`CarriedGame` whose ``computed`` is
+        ``computed(g)`` for that game g; None when every game is alone. ``ids``, ``mask``,
+        ``values`` are those ``same`` was found from."""
+        k = same.source.shape[1]
+        src = same.source[first:]
+        group = np.maximum(src, 0).max(axis=1) // k
+        count = np.bincount(group, minlength=same.games.size)
+        best = int(np.argmax(count))
+        if count[best] < 2:
+            return None
+        g = int(same.games[best])
+        return CarriedGame(
+            ids=np.asarray(ids)[g : g + 1].copy(),
+            mask=np.asarray(mask)[g : g + 1].copy(),
+            values=tuple(np.asarray(v)[g : g + 1].copy() for v in values),
+            computed=np.array(computed(g), copy=True),
+        )

@@ -74,6 +74,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from swarmgames.missions.coverage.distinct import CarriedGame, distinct_games
 from swarmgames.missions.coverage.roi import GaussianROI
 from swarmgames.missions.coverage.signal import SignalModel
 from swarmgames.missions.coverage.window import RoiRaster, floor_distance_sq, windowed_unary
@@ -198,6 +199,8 @@ class CoveragePotentials:
     _raster: RoiRaster | None = field(default=None, init=False, repr=False)
     _last_fields: tuple | None = field(default=None, init=False, repr=False)
     _last_repeats: tuple | None = field(default=None, init=False, repr=False)
+    _unary_carry: object = field(default=None, init=False, repr=False)
+    _pair_carry: object = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.separation_mode not in ("pairwise", "unary"):
@@ -276,8 +279,6 @@ class CoveragePotentials:
         last = self._last_repeats
         if last is not None and last[0] is batch:
             return last[1]
-        from swarmgames.missions.coverage.distinct import distinct_games
-
         ids = _state_ids(batch)
         same = None
         if ids is not None:
@@ -289,7 +290,13 @@ class CoveragePotentials:
     def _shared_integral(self, batch, mask, amask, states, nxt, ids, rows=None) -> np.ndarray:
         """:meth:`_integral`, computed once for every group of games that hold the same
         robots in the same states (:meth:`_repeats`: the integral does not depend on the
-        order of a game's variables), bit for bit."""
+        order of a game's variables), bit for bit. Over the whole grid (no signal floor), a
+        game of the previous batch is carried over too (:meth:`_carried_integral`)."""
+        if rows is None and self.signal_floor_dbm is None and ids is not None:
+            return self._carried_integral(batch, mask, amask, states, nxt, ids)
+        return self._within_batch(batch, mask, amask, states, nxt, ids, rows)
+
+    def _within_batch(self, batch, mask, amask, states, nxt, ids, rows=None) -> np.ndarray:
         same = self._repeats(batch)
         if same is None:
             return self._integral(mask, amask, states, nxt, ids, rows)
@@ -297,6 +304,30 @@ class CoveragePotentials:
         sub_rows = None if rows is None else same.rows(rows)
         part = self._integral(mask[g], amask[g], states[g], nxt[g], ids[g], sub_rows)
         return same.expand(part)
+
+    def _carried_integral(self, batch, mask, amask, states, nxt, ids) -> np.ndarray:
+        """The whole-grid unary of every game, computed once per group of equal games of the
+        batch and of the largest group of the previous batch
+        (:class:`~swarmgames.missions.coverage.distinct.CarriedGame`): a dense swarm's
+        batches hold the same game, whose unary (0.03 s a batch at 300 UAVs, 100 batches of 3
+        games a float64 stage) is then computed once a stage."""
+        values = (states, nxt, amask)
+        carry = self._unary_carry
+        same = None if carry is None else carry.match(ids, mask, *values)
+        if same is None:  # nothing to take from the previous batch
+            out = self._within_batch(batch, mask, amask, states, nxt, ids)
+            same = self._repeats(batch)
+            self._unary_carry = None
+            if same is not None:
+                self._unary_carry = CarriedGame.largest(same, ids, mask, values, out.__getitem__)
+            return out
+        heads = same.games[1:] - 1  # the batch's games to compute (game 0 is the carried one)
+        part = self._integral(mask[heads], amask[heads], states[heads], nxt[heads], ids[heads])
+        full = same.expand(np.concatenate([carry.computed[None], part]))
+        self._unary_carry = CarriedGame.largest(
+            same, *carry.joined(ids, mask, *values), full.__getitem__, first=1
+        )
+        return full[1:]
 
     def owner_unary(self, batch) -> np.ndarray:
         """:math:`\\phi_u` of every game's variable 0 only, (B, A): ``unary(batch)[:, 0]``
@@ -547,12 +578,44 @@ class CoveragePotentials:
         dtype = np.dtype(dtype)
         if dtype != np.float64:
             return self._pair_table(batch, dtype)
+        ids = _state_ids(batch)
+        mask, amask, states, nxt = _batch_arrays(batch)
+        values = (states, nxt, amask)
+        carry = self._pair_carry
+        same = None if carry is None or ids is None else carry.match(ids, mask, *values)
+        if same is not None:
+            return self._carried_pair_table(batch, dtype, carry, same, ids, mask, values)
+        self._pair_carry = None
         same = self._repeats(batch)
         if same is None:
             return self._pair_table(batch, dtype)
         # The first game of every group is computed in place, the others copied from it.
         out = self._pair_table(batch, dtype, games=same.games)
         same.expand_pairs(out)
+        if ids is not None:
+            self._pair_carry = CarriedGame.largest(same, ids, mask, values, out.__getitem__)
+        return out
+
+    def _carried_pair_table(self, batch, dtype, carry, same, ids, mask, values) -> np.ndarray:
+        """:meth:`pair_table` of a batch whose games may repeat the previous batch's largest
+        group (:class:`~swarmgames.missions.coverage.distinct.CarriedGame`, game 0 of
+        ``same``): their tables are its table reordered, bit for bit, and only the batch's
+        other distinct games are computed. A dense float64 swarm's batches (3 games of
+        K = 300) then compute one table a stage instead of one a batch."""
+        heads = same.games[1:] - 1
+        if heads.size:
+            out = self._pair_table(batch, dtype, games=heads)
+        else:
+            b, k, a = np.shape(batch.action_mask)
+            out = np.empty((b, k, a, k, a), dtype=dtype)
+        same.expand_pairs(out, carry.computed)
+
+        def table(g: int) -> np.ndarray:  # game g of ``same``
+            return carry.computed if g == 0 else out[g - 1]
+
+        self._pair_carry = CarriedGame.largest(
+            same, *carry.joined(ids, mask, *values), table, first=1
+        )
         return out
 
     def _pair_table(self, batch, dtype, games=None) -> np.ndarray:
