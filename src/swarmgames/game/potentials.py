@@ -59,6 +59,7 @@ __all__ = [
     "pair_weights",
     "ranked_chunks",
     "shared_tables",
+    "weighted_pair_table",
 ]
 
 
@@ -436,7 +437,7 @@ def evaluate_payoffs(
     if source is not None:
         p = None
     elif alpha_b > 0 and callable(table_fn) and batch.pair_mask is None:
-        pair = _symmetric_table(batch, table_fn, weights, dtype)
+        pair = weighted_pair_table(batch, table_fn, weights, dtype)
         p = None
     else:
         p = potentials.pairwise(batch) if alpha_b > 0 else None
@@ -493,10 +494,11 @@ def _check_pair_finite(
         )
 
 
-def _symmetric_table(batch: LocalGameBatch, table_fn, weights, dtype) -> np.ndarray | None:
+def weighted_pair_table(batch: LocalGameBatch, table_fn, weights, dtype) -> np.ndarray | None:
     """The table ``table_fn(batch, dtype)`` returns, already symmetrised and in the solver's
     layout ``(B, K, A, K, A)``, times each game's weight ``weights`` (B,); 0 outside the
-    valid entries."""
+    valid entries (what :func:`evaluate_payoffs` makes of potentials' ``pair_table``; in
+    place when the table is the caller's own C-contiguous array of ``dtype``)."""
     b, k, a = batch.n_games, batch.n_vars, batch.n_actions
     w = table_fn(batch, dtype)
     if w is None:  # no pairwise term in this batch

@@ -535,6 +535,8 @@ class CoveragePotentials:
         never for the whole batch), for float32 tables with the compiled kernel; None
         otherwise (the engine then calls :meth:`pair_table`). Equal to it to float32
         rounding."""
+        if np.dtype(dtype) == np.float64:
+            return self._held_pairs(batch, weights)
         if not self.pair_on_demand(dtype):
             return None
         from swarmgames.missions.coverage.kernel import CoveragePairs
@@ -560,6 +562,70 @@ class CoveragePotentials:
             ids=_state_ids(batch),
             repeats=self._repeats(batch),
         )
+
+    def _held_pairs(self, batch, weights):
+        """The float64 tables of a batch whose large games repeat one another (or the
+        previous batch's carried game) as :class:`~swarmgames.missions.coverage.held.
+        HeldPairs`, one weighted table per group; None when no group of at least two games
+        has :data:`~swarmgames.missions.coverage.held.HELD_SHARE_MIN` valid entries (the
+        engine then takes :meth:`pair_table`, a table per game)."""
+        from swarmgames.game.potentials import weighted_pair_table
+        from swarmgames.missions.coverage.held import HELD_SHARE_MIN, HeldPairs
+
+        ids = _state_ids(batch)
+        if ids is None:
+            return None
+        mask, amask, states, nxt = _batch_arrays(batch)
+        values = (states, nxt, amask)
+        b, k, a = amask.shape
+        carry = self._pair_carry
+        same = None if carry is None else carry.match(ids, mask, *values)
+        off = 1 if same is not None else 0
+        if same is None:
+            same = self._repeats(batch)
+        if same is None:
+            return None
+        src = same.source[off:]
+        group = np.maximum(src, 0).max(axis=1) // k  # its head's index in same.games
+        count = np.bincount(group, minlength=same.games.size)
+        if not np.any((count[group] >= 2) & (mask.sum(axis=1) * a >= HELD_SHARE_MIN)):
+            return None
+        used, group = np.unique(group, return_inverse=True)
+        group = group.reshape(-1)
+        first = np.full(used.size, b, dtype=np.int64)
+        np.minimum.at(first, group, np.arange(b))  # every group's first game of the batch
+        w = np.broadcast_to(np.asarray(weights, dtype=float), (b,))
+        if np.any(w != w[first[group]]):  # a group's games must weigh alike
+            return None
+        var = np.where(src >= 0, src % k, 0)
+        carried = off == 1 and same.games[used[0]] == 0  # group 0 reads the carried table
+        todo = first[1:] if carried else first
+        tables = self._pair_table(batch, np.dtype(np.float64), games=todo) if todo.size else None
+        own = np.empty((used.size, k, a, k, a))
+        for r, g in enumerate(first):
+            if r == 0 and carried:
+                # Into the order of the batch's first game of the group; its games' variables
+                # then index that game's, not the carried game's.
+                v = var[g]
+                own[0] = carry.computed.take(v, axis=0).take(v, axis=2)
+                inv = np.zeros(k, dtype=np.int64)
+                inv[v[mask[g]]] = np.flatnonzero(mask[g])
+                sel = group == 0
+                var[sel] = np.where(mask[sel], inv[var[sel]], 0)
+            else:
+                own[r] = tables[g]
+        del tables
+        # The largest group's game is carried to the next batch (unweighted: before the
+        # weights scale ``own`` in place).
+        g = int(first[np.argmax(np.bincount(group))])
+        self._pair_carry = CarriedGame(
+            ids=ids[g : g + 1].copy(),
+            mask=mask[g : g + 1].copy(),
+            values=tuple(x[g : g + 1].copy() for x in values),
+            computed=own[group[g]].copy(),
+        )
+        weighted = weighted_pair_table(batch.select(first), lambda *_: own, w[first], np.float64)
+        return HeldPairs(weighted, group, var, mask.copy(), mask[first].copy())
 
     def pair_table(self, batch, dtype=np.float64) -> np.ndarray:
         """Symmetrised eq. 6 in the engine's layout, ``(B, K, A, K, A)``:

@@ -1,0 +1,120 @@
+"""A batch's float64 pairwise tables held once for every group of equal games.
+
+In a dense swarm the local games of a batch hold the same robots in the same states, in
+another order (each game starts with its owner). Their float64 tables are then equal up to
+that order (:mod:`~swarmgames.missions.coverage.distinct`), and until now each game was given
+its own reordered copy: 58 MB per game at K = 300, which every mean-field sweep streamed
+from memory. :class:`HeldPairs` holds one weighted table per group, in the order of the game
+it was computed for, and serves it as a
+:class:`~swarmgames.game.potentials.PairSource` that ranks its games' variables
+(``shared``, ``ranked_table``): the compiled engine solves every game of a group on the one
+table, the games in step.
+
+A group's first game (its head) reads the table in its own order, so its results are those
+of its own table bit for bit; the other games sum their pair fields in the head's order,
+which changes their last bits. The potentials use it only for games of at least
+:data:`HELD_SHARE_MIN` valid entries (the 7-UAV golden runs' games keep their own tables).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["HELD_SHARE_MIN", "HeldPairs"]
+
+HELD_SHARE_MIN = 1024
+"""Valid entries (valid variables × actions) from which equal float64 games share a table."""
+
+
+@dataclass(frozen=True, eq=False)
+class HeldPairs:
+    """Weighted float64 pairwise tables, one per group of equal games.
+
+    Parameters
+    ----------
+    tables : ndarray of float64, shape (R, K, A, K, A)
+        W of every group, in the order of the variables of the game it was computed for
+        (the group's table game), weighted and zero outside the valid entries.
+    group : ndarray of int64, shape (B,)
+        The group (table) of every game.
+    var : ndarray of int64, shape (B, K)
+        Variable ``var[b, k]`` of the group's table game is variable k of game b (its valid
+        variables; any value at padding).
+    mask : ndarray of bool, shape (B, K)
+        Valid variables of every game.
+    table_valid : ndarray of bool, shape (R, K)
+        Valid variables of every table game.
+    """
+
+    tables: np.ndarray
+    group: np.ndarray
+    var: np.ndarray
+    mask: np.ndarray
+    table_valid: np.ndarray
+
+    def table(self, games: np.ndarray) -> np.ndarray:
+        """W of ``games`` in their own order, (G, K, A, K, A), a new array."""
+        games = np.asarray(games, dtype=np.int64).reshape(-1)
+        out = np.empty((games.size, *self.tables.shape[1:]), dtype=self.tables.dtype)
+        for i, g in enumerate(games):
+            v, pad = self.var[g], ~self.mask[g]
+            out[i] = self.tables[self.group[g]].take(v, axis=0).take(v, axis=2)
+            out[i][pad] = 0.0
+            out[i][:, :, pad] = 0.0
+        return out
+
+    def at(self, profile: np.ndarray) -> np.ndarray:
+        """``W[b, k, a, l, profile[b, l]]``, (B, K, A, K): gathered from the group tables."""
+        _, k, a = self.tables.shape[:3]
+        x = np.asarray(profile, dtype=np.int64)
+        row = (self.group[:, None] * k + self.var)[:, :, None] * a + np.arange(a)  # (B, K, A)
+        col = self.var * a + x  # (B, K): (l, x_l)
+        flat = row[:, :, :, None] * (k * a) + col[:, None, None, :]
+        valid = self.mask[:, :, None, None] & self.mask[:, None, None, :]
+        return np.where(valid, np.take(self.tables.reshape(-1), flat), 0.0)
+
+    def select(self, games) -> HeldPairs:
+        """The source of a subset of games."""
+        games = np.arange(self.group.size)[games]
+        used, group = np.unique(self.group[games], return_inverse=True)
+        return HeldPairs(
+            self.tables[used], group.reshape(-1), self.var[games], self.mask[games],
+            self.table_valid[used],
+        )  # fmt: skip
+
+    @property
+    def _table_rank(self) -> np.ndarray:
+        """Canonical position of every table game's variable: the valid ones first, in order."""
+        order = np.argsort(~self.table_valid, axis=1, kind="stable")
+        rank = np.empty_like(order)
+        rank[np.arange(order.shape[0])[:, None], order] = np.arange(order.shape[1])
+        return rank
+
+    def shared(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(head, rank)`` of the :class:`~swarmgames.game.potentials.PairSource` protocol:
+        the first game of every group, and every variable's canonical position in its
+        group's table (padding after the valid variables, in order)."""
+        b = self.var.shape[0]
+        first = np.full(self.tables.shape[0], b, dtype=np.int64)
+        np.minimum.at(first, self.group, np.arange(b))
+        trank = self._table_rank[self.group]  # (B, K)
+        rank = np.take_along_axis(trank, np.where(self.mask, self.var, 0), axis=1)
+        # Padding takes the positions after the valid ones, in order.
+        nv = self.mask.sum(axis=1)
+        pad = np.cumsum(~self.mask, axis=1) - 1 + nv[:, None]
+        rank = np.where(self.mask, rank, pad)
+        return first[self.group], rank
+
+    def ranked_table(self, games: np.ndarray) -> np.ndarray:
+        """The tables of ``games``' groups in rank order, (G, K, A, K, A), a new array (the
+        table game's own order when its valid variables come first)."""
+        games = np.asarray(games, dtype=np.int64).reshape(-1)
+        out = np.empty((games.size, *self.tables.shape[1:]), dtype=self.tables.dtype)
+        ranks = self._table_rank
+        for i, g in enumerate(games):
+            r = self.group[g]
+            order = np.argsort(ranks[r])
+            out[i] = self.tables[r].take(order, axis=0).take(order, axis=2)
+        return out
