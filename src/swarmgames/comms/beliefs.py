@@ -88,7 +88,8 @@ class BeliefTable:
         sender = np.concatenate([self.sender, new.sender])
         stamp = np.concatenate([self.stamp, new.stamp])
         arrival = np.concatenate([self.arrival, new.arrival])
-        order = np.lexsort((stamp, sender, owner))
+        # (owner, sender, stamp) order, stable: one composite key for the first two.
+        order = np.lexsort((stamp, owner * self.n_robots + sender))
         owner, sender, stamp, arrival = owner[order], sender[order], stamp[order], arrival[order]
         keep = stamp >= now - max_age_s - 1e-9
         arrived = arrival <= now + 1e-12
@@ -99,10 +100,11 @@ class BeliefTable:
         superseded = np.zeros(owner.size, dtype=bool)
         superseded[idx[:-1][arrived_key[idx[:-1]] == arrived_key[idx[1:]]]] = True
         keep &= ~superseded
+        rows = order[keep]
         cat = {
-            "state": np.concatenate([self.state, new.state])[order][keep],
-            "mean": np.concatenate([self.mean, new.mean])[order][keep],
-            "nbh": np.concatenate([padded(self), padded(new)])[order][keep],
+            "state": np.concatenate([self.state, new.state])[rows],
+            "mean": np.concatenate([self.mean, new.mean])[rows],
+            "nbh": np.concatenate([padded(self), padded(new)])[rows],
         }
         return BeliefTable(
             self.n_robots,

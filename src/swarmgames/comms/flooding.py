@@ -138,10 +138,11 @@ def flood(
             break
         msg, node = np.divmod(keys, n)
         got.append((node, msg, np.full(keys.size, depth, dtype=np.int64)))
-        reached = np.union1d(reached, keys)
+        # ``keys`` are sorted, unique and new: merged in, the same array as np.union1d.
+        reached = np.insert(reached, np.searchsorted(reached, keys), keys)
     if got:
         receiver, sender, hops = (np.concatenate(parts) for parts in zip(*got, strict=True))
-        order = np.lexsort((sender, receiver))
+        order = np.argsort(receiver * n + sender)  # unique pairs: lexsort's order
         receiver, sender, hops = receiver[order], sender[order], hops[order]
     else:
         receiver = sender = hops = np.zeros(0, dtype=np.int64)
