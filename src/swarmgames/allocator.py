@@ -7,10 +7,11 @@ above a threshold (128 KB, adapting up to 32 MB) with a fresh ``mmap`` and unmap
 freed, and returns the top of its heap to the system past a trim threshold. Every such array
 is then faulted in again, page by page, zeroed by the kernel. Where a page fault is
 expensive, as in a virtual machine, this dominates. On the 2-core development VM a fresh page
-costs about 10 µs (0.55 s to first touch 216 MB, 2 ms per MB), and a 1 000-UAV stage took
-188–199 ms with the defaults and 142–154 ms with the settings below. In a dense swarm the
-OLSR advance went from 2.1 s to 0.4 s. The results are the same bit for bit: only where the
-memory comes from changes.
+costs about 10 µs (0.55 s to first touch 216 MB, 2 ms per MB): in a dense swarm the OLSR
+advance went from 2.1 s to 0.4 s with the settings below. A sparse swarm's blocks (16 MB at
+most) are refaulted only until glibc's adaptive threshold has risen past them, so a whole run
+or the benchmark suite runs the same either way (docs/bench.md, "Freed memory kept for
+reuse"). The results are the same bit for bit: only where the memory comes from changes.
 
 :func:`reuse_freed_memory` serves every block from the heap (``M_MMAP_MAX = 0``; glibc
 still falls back to ``mmap`` when the heap cannot grow) and keeps up to 2 GiB of freed memory

@@ -125,6 +125,15 @@ def _batch_arrays(batch) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray
     return mask, amask, states, nxt
 
 
+def _next_carry(carry, off, same, ids, mask, values, computed):
+    """The :class:`~swarmgames.missions.coverage.distinct.CarriedGame` a batch leaves for the
+    next: its largest group of equal games (``same``, over ``carry`` and the batch when
+    ``off`` is 1), with ``computed(g)``, the values of game g of ``same``; None when every
+    game is alone."""
+    arrays = carry.joined(ids, mask, *values) if off else (ids, mask, values)
+    return CarriedGame.largest(same, *arrays, computed, first=off)
+
+
 @dataclass(eq=False)
 class CoveragePotentials:
     """Unary (eq. 5) and pairwise (eq. 6) potentials of the coverage mission.
@@ -294,9 +303,6 @@ class CoveragePotentials:
         game of the previous batch is carried over too (:meth:`_carried_integral`)."""
         if rows is None and self.signal_floor_dbm is None and ids is not None:
             return self._carried_integral(batch, mask, amask, states, nxt, ids)
-        return self._within_batch(batch, mask, amask, states, nxt, ids, rows)
-
-    def _within_batch(self, batch, mask, amask, states, nxt, ids, rows=None) -> np.ndarray:
         same = self._repeats(batch)
         if same is None:
             return self._integral(mask, amask, states, nxt, ids, rows)
@@ -313,21 +319,22 @@ class CoveragePotentials:
         games a float64 stage) is then computed once a stage."""
         values = (states, nxt, amask)
         carry = self._unary_carry
-        same = None if carry is None else carry.match(ids, mask, *values)
-        if same is None:  # nothing to take from the previous batch
-            out = self._within_batch(batch, mask, amask, states, nxt, ids)
-            same = self._repeats(batch)
+        same, off = self._groups(carry, batch, ids, mask, values)
+        if same is None:
             self._unary_carry = None
-            if same is not None:
-                self._unary_carry = CarriedGame.largest(same, ids, mask, values, out.__getitem__)
-            return out
-        heads = same.games[1:] - 1  # the batch's games to compute (game 0 is the carried one)
+            return self._integral(mask, amask, states, nxt, ids)
+        heads = same.games[off:] - off  # the batch's games to compute
         part = self._integral(mask[heads], amask[heads], states[heads], nxt[heads], ids[heads])
-        full = same.expand(np.concatenate([carry.computed[None], part]))
-        self._unary_carry = CarriedGame.largest(
-            same, *carry.joined(ids, mask, *values), full.__getitem__, first=1
-        )
-        return full[1:]
+        full = same.expand(np.concatenate([carry.computed[None], part]) if off else part)
+        self._unary_carry = _next_carry(carry, off, same, ids, mask, values, full.__getitem__)
+        return full[off:]
+
+    def _groups(self, carry, batch, ids, mask, values):
+        """``(same, off)``: the groups of equal games of ``carry`` (game 0, ``off`` = 1) and
+        the batch when any batch game repeats it or another, else those of the batch alone
+        (:meth:`_repeats`, ``off`` = 0; ``same`` None when every game is alone)."""
+        same = None if carry is None or ids is None else carry.match(ids, mask, *values)
+        return (same, 1) if same is not None else (self._repeats(batch), 0)
 
     def owner_unary(self, batch) -> np.ndarray:
         """:math:`\\phi_u` of every game's variable 0 only, (B, A): ``unary(batch)[:, 0]``
@@ -579,10 +586,7 @@ class CoveragePotentials:
         values = (states, nxt, amask)
         b, k, a = amask.shape
         carry = self._pair_carry
-        same = None if carry is None else carry.match(ids, mask, *values)
-        off = 1 if same is not None else 0
-        if same is None:
-            same = self._repeats(batch)
+        same, off = self._groups(carry, batch, ids, mask, values)
         if same is None:
             return None
         src = same.source[off:]
@@ -599,31 +603,27 @@ class CoveragePotentials:
             return None
         var = np.where(src >= 0, src % k, 0)
         carried = off == 1 and same.games[used[0]] == 0  # group 0 reads the carried table
-        todo = first[1:] if carried else first
-        tables = self._pair_table(batch, np.dtype(np.float64), games=todo) if todo.size else None
         own = np.empty((used.size, k, a, k, a))
-        for r, g in enumerate(first):
-            if r == 0 and carried:
-                # Into the order of the batch's first game of the group; its games' variables
-                # then index that game's, not the carried game's.
-                v = var[g]
-                own[0] = carry.computed.take(v, axis=0).take(v, axis=2)
-                inv = np.zeros(k, dtype=np.int64)
-                inv[v[mask[g]]] = np.flatnonzero(mask[g])
-                sel = group == 0
-                var[sel] = np.where(mask[sel], inv[var[sel]], 0)
-            else:
-                own[r] = tables[g]
-        del tables
+        todo = first[1:] if carried else first
+        if todo.size:
+            own[int(carried) :] = self._pair_table(batch.select(todo), np.dtype(np.float64))
+        if carried:
+            # Into the order of the batch's first game of the group; its games' variables
+            # then index that game's, not the carried game's.
+            g = first[0]
+            v = var[g]
+            own[0] = carry.computed.take(v, axis=0).take(v, axis=2)
+            inv = np.zeros(k, dtype=np.int64)
+            inv[v[mask[g]]] = np.flatnonzero(mask[g])
+            sel = group == 0
+            var[sel] = np.where(mask[sel], inv[var[sel]], 0)
         # The largest group's game is carried to the next batch (unweighted: before the
-        # weights scale ``own`` in place).
-        g = int(first[np.argmax(np.bincount(group))])
-        self._pair_carry = CarriedGame(
-            ids=ids[g : g + 1].copy(),
-            mask=mask[g : g + 1].copy(),
-            values=tuple(x[g : g + 1].copy() for x in values),
-            computed=own[group[g]].copy(),
-        )
+        # weights scale ``own`` in place). A head of same is the carried game or its group's
+        # first batch game, whose own-order table ``own`` holds.
+        self._pair_carry = _next_carry(
+            carry, off, same, ids, mask, values,
+            lambda g: carry.computed if off and g == 0 else own[group[g - off]],
+        )  # fmt: skip
         weighted = weighted_pair_table(batch.select(first), lambda *_: own, w[first], np.float64)
         return HeldPairs(weighted, group, var, mask.copy(), mask[first].copy())
 
@@ -648,40 +648,25 @@ class CoveragePotentials:
         mask, amask, states, nxt = _batch_arrays(batch)
         values = (states, nxt, amask)
         carry = self._pair_carry
-        same = None if carry is None or ids is None else carry.match(ids, mask, *values)
-        if same is not None:
-            return self._carried_pair_table(batch, dtype, carry, same, ids, mask, values)
+        same, off = self._groups(carry, batch, ids, mask, values)
         self._pair_carry = None
-        same = self._repeats(batch)
         if same is None:
             return self._pair_table(batch, dtype)
-        # The first game of every group is computed in place, the others copied from it.
-        out = self._pair_table(batch, dtype, games=same.games)
-        same.expand_pairs(out)
-        if ids is not None:
-            self._pair_carry = CarriedGame.largest(same, ids, mask, values, out.__getitem__)
-        return out
-
-    def _carried_pair_table(self, batch, dtype, carry, same, ids, mask, values) -> np.ndarray:
-        """:meth:`pair_table` of a batch whose games may repeat the previous batch's largest
-        group (:class:`~swarmgames.missions.coverage.distinct.CarriedGame`, game 0 of
-        ``same``): their tables are its table reordered, bit for bit, and only the batch's
-        other distinct games are computed. A dense float64 swarm's batches (3 games of
-        K = 300) then compute one table a stage instead of one a batch."""
-        heads = same.games[1:] - 1
+        # The first game of every group is computed in place, the others copied from it (or
+        # from the previous batch's carried game, game 0 of ``same``, when ``off`` is 1: a
+        # dense float64 swarm's batches then compute one table a stage, not one a batch).
+        heads = same.games[off:] - off
         if heads.size:
             out = self._pair_table(batch, dtype, games=heads)
         else:
-            b, k, a = np.shape(batch.action_mask)
+            b, k, a = amask.shape
             out = np.empty((b, k, a, k, a), dtype=dtype)
-        same.expand_pairs(out, carry.computed)
-
-        def table(g: int) -> np.ndarray:  # game g of ``same``
-            return carry.computed if g == 0 else out[g - 1]
-
-        self._pair_carry = CarriedGame.largest(
-            same, *carry.joined(ids, mask, *values), table, first=1
-        )
+        same.expand_pairs(out, carry.computed if off else None)
+        if ids is not None:
+            self._pair_carry = _next_carry(
+                carry, off, same, ids, mask, values,
+                lambda g: carry.computed if off and g == 0 else out[g - off],
+            )  # fmt: skip
         return out
 
     def _pair_table(self, batch, dtype, games=None) -> np.ndarray:
