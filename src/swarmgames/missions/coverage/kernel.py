@@ -161,63 +161,68 @@ def _psi_inplace(d2, n, d02, d2f, c0, c1):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _square_d2(px, py, pz, cx, cy, origin, cell, r, width, ddx, sq, at_least):
-    """Squared distances from (px, py, pz) to the cells of the window's square around cell
-    (cx, cy), ``sq[y * width + t]`` (numpy's arithmetic: per-axis terms in float64, their
-    sum in float32), or the running minimum with ``sq`` when ``at_least``. Rows are padded
-    to ``width`` (whole vectors, no scalar remainder; ``ddx``'s pad holds d_F²)."""
-    side = 2 * r + 1
-    for t in range(side):
-        gx = origin[0] + (cx - r + t) * cell
-        ddx[t] = np.float32((gx - px) ** 2)
-    for y in range(side):
-        gy = origin[1] + (cy - r + y) * cell
-        ddy = np.float32((gy - py) ** 2 + pz**2)
-        base = y * width
-        if at_least:
-            for t in range(width):
-                v = ddy + ddx[t]
-                sq[base + t] = v if v < sq[base + t] else sq[base + t]
-        else:
-            for t in range(width):
-                sq[base + t] = ddy + ddx[t]
+def _axis_d2(p, origin, c, r, cell, extra, out):
+    """One axis's squared distances from coordinate ``p`` to the 2 r + 1 cell centres of the
+    window's square around cell ``c``, plus ``extra`` (float64, then float32: numpy's
+    arithmetic), into ``out``."""
+    for t in range(2 * r + 1):
+        g = origin + (c - r + t) * cell
+        out[t] = np.float32((g - p) ** 2 + extra)
+
+
+@njit(cache=True, nogil=True)
+def _disc_d2(ddy, ddx, jy, jx, out, n):
+    """``out[:n]``: the squared distances at the disc's cells, ``ddy[jy] + ddx[jx]`` (the
+    sum in float32)."""
+    for j in range(n):
+        out[j] = ddy[jy[j]] + ddx[jx[j]]
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _disc_from_square(sq, r, width, row_len, row_start, out):
-    """The disc's cells of the padded square ``sq``, in the disc's flat order, into ``out``."""
+def _square_d2(px, py, pz, cx, cy, origin, cell, r, width, ddx, ddy, sq):
+    """The running minimum of ``sq`` with the squared distances from (px, py, pz) to the
+    cells of the window's square around cell (cx, cy), ``sq[y * width + t]`` (the
+    arithmetic of :func:`_disc_d2`). Rows are padded to ``width`` (whole vectors, no scalar
+    remainder; ``ddx``'s pad holds d_F²)."""
+    _axis_d2(px, origin[0], cx, r, cell, 0.0, ddx)
+    _axis_d2(py, origin[1], cy, r, cell, pz**2, ddy)
     for y in range(2 * r + 1):
-        h = row_len[y] // 2
-        j0 = row_start[y]
-        for t in range(row_len[y]):
-            out[j0 + t] = sq[y * width + r - h + t]
+        base = y * width
+        for t in range(width):
+            v = ddy[y] + ddx[t]
+            sq[base + t] = v if v < sq[base + t] else sq[base + t]
+
+
+@njit(cache=True, nogil=True)
+def _gather(src, idx, scale, out, n):
+    """``out[:n] = src[idx[:n]] * scale``."""
+    for j in range(n):
+        out[j] = src[idx[j]] * scale
 
 
 @njit(cache=True, nogil=True, parallel=True)
 def _state_table(
-    src_b, src_k, amask, nxt, ctr, origin, cell, r, row_len, row_start, d02, d2f, c0, c1,
-    soft, inv_tau, table,
+    src_b, src_k, amask, nxt, ctr, origin, cell, r, jy, jx, d02, d2f, c0, c1, soft, inv_tau,
+    table,
 ):  # fmt: skip
     """Signal of every action of every distinct state over its window, ``table`` (U, A, C):
-    :math:`e^{(\\psi_F - F) / \\tau}` with the smooth maximum, else :math:`\\psi_F`."""
+    :math:`e^{(\\psi_F - F) / \\tau}` with the smooth maximum, else :math:`\\psi_F`. The disc's
+    cell ``j`` is at row ``jy[j]`` and column ``jx[j]`` of the window's square."""
     n_a = amask.shape[2]
     side = 2 * r + 1
-    n_cells = row_start[side]
-    width = (side + 15) // 16 * 16
+    n_cells = jy.size
     floor = c0 - c1 * (log_f32(d2f) * _LOG10E)
     for u in prange(src_b.size):
         b, k = src_b[u], src_k[u]
-        ddx = np.full(width, d2f, np.float32)
-        sq = np.empty(side * width, np.float32)
+        ddx = np.empty(side, np.float32)
+        ddy = np.empty(side, np.float32)
         for x in range(n_a):
             if not amask[b, k, x]:
                 continue
             row = table[u, x]
-            _square_d2(
-                nxt[b, k, x, 0], nxt[b, k, x, 1], nxt[b, k, x, 2], ctr[b, k, 0], ctr[b, k, 1],
-                origin, cell, r, width, ddx, sq, False,
-            )  # fmt: skip
-            _disc_from_square(sq, r, width, row_len, row_start, row)
+            _axis_d2(nxt[b, k, x, 0], origin[0], ctr[b, k, 0], r, cell, 0.0, ddx)
+            _axis_d2(nxt[b, k, x, 1], origin[1], ctr[b, k, 1], r, cell, nxt[b, k, x, 2] ** 2, ddy)
+            _disc_d2(ddy, ddx, jy, jx, row, n_cells)
             _psi_inplace(row, n_cells, d02, d2f, c0, c1)
             if soft:
                 _exp_excess(row, n_cells, floor, inv_tau)
@@ -248,14 +253,18 @@ def _hard_gain(f, o, g, n):
 
 @njit(cache=True, nogil=True, parallel=True)
 def _gain_rows(
-    rows_b, rows_k, rows_u, mask, amask, states, ctr, weights, origin, cell, r, row_len,
-    row_start, pair_reach2, d02, d2f, c0, c1, soft, inv_tau, tau, table, out,
+    rows_b, rows_k, rows_u, mask, amask, states, ctr, weights, origin, cell, r, in_raster,
+    in_square, pair_reach2, d02, d2f, c0, c1, soft, inv_tau, tau, table, out,
 ):  # fmt: skip
     """:math:`\\tilde\\phi_u` of every valid variable (row) into ``out``, its actions'
-    signals taken from row ``rows_u`` of ``table``."""
+    signals taken from row ``rows_u`` of ``table``. The disc's cell ``j`` is entry
+    ``in_raster[j]`` of the raster's flat ``weights`` from the window's corner, and entry
+    ``in_square[j]`` of the window's padded square."""
     n_k, n_a = mask.shape[1], amask.shape[2]
+    n_x = weights.shape[1]
+    flat_w = weights.reshape(weights.size)
     side = 2 * r + 1
-    n_cells = row_start[side]
+    n_cells = in_square.size
     floor = c0 - c1 * (log_f32(d2f) * _LOG10E)
     scale = tau if soft else _f32(1.0)
     width = (side + 15) // 16 * 16
@@ -265,16 +274,12 @@ def _gain_rows(
         w = np.empty(n_cells, np.float32)
         m = np.empty(n_cells, np.float32)
         g = np.empty(n_cells, np.float32)
-        sq = np.empty(side * width, np.float32)
+        sq = np.full(side * width, d2f, np.float32)
         ddx = np.full(width, d2f, np.float32)
-        for y in range(side):
-            h = row_len[y] // 2
-            j0 = row_start[y]
-            for t in range(row_len[y]):
-                w[j0 + t] = weights[cy - r + y, cx - h + t] * scale
+        ddy = np.empty(side, np.float32)
+        _gather(flat_w[(cy - r) * n_x + cx - r :], in_raster, scale, w, n_cells)
         # o_k as the smallest squared distance of the others within reach, on the window's
         # padded square, then read on the disc.
-        sq.fill(d2f)
         sx, sy = states[b, k, 0], states[b, k, 1]
         for other in range(n_k):
             if other == k or not mask[b, other]:
@@ -282,8 +287,8 @@ def _gain_rows(
             lx, ly, lz = states[b, other, 0], states[b, other, 1], states[b, other, 2]
             if (sx - lx) * (sx - lx) + (sy - ly) * (sy - ly) > pair_reach2:
                 continue
-            _square_d2(lx, ly, lz, cx, cy, origin, cell, r, width, ddx, sq, True)
-        _disc_from_square(sq, r, width, row_len, row_start, m)
+            _square_d2(lx, ly, lz, cx, cy, origin, cell, r, width, ddx, ddy, sq)
+        _gather(sq, in_square, _f32(1.0), m, n_cells)
         _psi_inplace(m, n_cells, d02, d2f, c0, c1)
         if soft:
             _exp_excess(m, n_cells, floor, -inv_tau)
@@ -370,10 +375,11 @@ def compiled_windowed_unary(
             raster, signal, floor_dbm, mask, amask, states, nxt, softness_db=softness_db
         )
     r, n_cells = win.radius, win.n_cells
-    # The disc's cells row by row (dy = -r .. r): row i holds the 2 h_i + 1 cells
-    # dx = -h_i .. h_i, contiguous in the flat order of win.offsets.
-    row_len = np.bincount(win.offsets[:, 0] + r, minlength=2 * r + 1).astype(np.int64)
-    row_start = np.concatenate([[0], np.cumsum(row_len)]).astype(np.int64)
+    # The disc's cells (dy, dx) as rows and columns of the window's (2r + 1)² square.
+    jy = np.ascontiguousarray(win.offsets[:, 0] + r, dtype=np.int64)
+    jx = np.ascontiguousarray(win.offsets[:, 1] + r, dtype=np.int64)
+    in_raster = jy * raster.weights.shape[1] + jx
+    in_square = jy * ((2 * r + 1 + 15) // 16 * 16) + jx
     mask = np.ascontiguousarray(mask, dtype=np.bool_)
     amask = np.ascontiguousarray(amask, dtype=np.bool_)
     states = np.ascontiguousarray(states, dtype=np.float64)
@@ -383,7 +389,7 @@ def compiled_windowed_unary(
     ids = np.arange(B * K).reshape(B, K) if state_ids is None else np.asarray(state_ids)
     inv_tau = _f32(1.0) / win.tau if soft else _f32(1.0)
     consts = (win.d02, win.d2_floor, win.c0, win.c1, soft, inv_tau)
-    geom = (origin, float(win.cell), int(r), row_len, row_start)
+    geom = (origin, float(win.cell), int(r))
     # Games in spatial order (by the cell of their first variable), in chunks whose table of
     # distinct states stays under chunk_elems: the games of a chunk share most members.
     order = np.argsort(_morton(ctr[:, 0, 0], ctr[:, 0, 1]), kind="stable")
@@ -402,10 +408,10 @@ def compiled_windowed_unary(
                 rb = games[rb]
                 slot, ub, uk = _distinct_states(rb, rk, ids[rb, rk], states, nxt, amask)
                 table = buf[: ub.size]
-                _state_table(ub, uk, amask, nxt, ctr, *geom, win.d02, win.d2_floor, win.c0,
-                             win.c1, soft, inv_tau, table)  # fmt: skip
+                _state_table(ub, uk, amask, nxt, ctr, *geom, jy, jx, *consts, table)
                 _gain_rows(rb, rk, slot, mask, amask, states, ctr, raster.weights, *geom,
-                           float(win.pair_reach) ** 2, *consts, win.tau, table, out)  # fmt: skip
+                           in_raster, in_square, float(win.pair_reach) ** 2, *consts, win.tau,
+                           table, out)  # fmt: skip
         finally:
             numba.set_num_threads(before)
     return out
@@ -416,13 +422,25 @@ def _pair_row(px, py, pz, i, valid, n, scale, offset, d02, inv_sep, crowd, weigh
     """``row[:n]``: W between point ``i`` and every point ``m`` of a game,
     :math:`\\alpha_b (2 \\psi_R(d) - c\\, \\max(0, 1 - d / d_{sep})^2)` times ``valid[m]``
     (d² in float64 as pair_table's, then float32: the logarithm, and the penalty from
-    the float32 square root)."""
+    the float32 square root).
+
+    Two loops: the squared distances (float64 lanes), then the rest in float32 lanes, twice
+    as wide. Without crowding (``crowd`` = +0) the penalty term is +0 whatever the distance,
+    and subtracting it changes nothing, so it is left out."""
     xi, yi, zi = px[i], py[i], pz[i]
     for m in range(n):
         dx = xi - px[m]
         dy = yi - py[m]
         dz = zi - pz[m]
-        v = np.float32(dx * dx + dy * dy + dz * dz)
+        row[m] = np.float32(dx * dx + dy * dy + dz * dz)
+    if crowd == _f32(0.0):
+        for m in range(n):
+            v = row[m]
+            v = v if v > d02 else d02
+            row[m] = ((log_f32(v) * _LOG10E) * scale + offset) * weight * valid[m]
+        return
+    for m in range(n):
+        v = row[m]
         pen = _f32(1.0) - np.sqrt(v) * inv_sep
         pen = pen if pen > _f32(0.0) else _f32(0.0)
         v = v if v > d02 else d02
