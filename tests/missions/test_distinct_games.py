@@ -73,6 +73,17 @@ def test_games_with_other_robots_or_states_are_not_shared():
     assert distinct_games(ids, mask, states) is None
 
 
+def test_repeated_rows_checks_equal_hashes_on_the_rows(monkeypatch):
+    import swarmgames.missions.coverage.distinct as distinct
+
+    rows = np.array([[-1, 1, 3], [-1, 2, 2], [-1, 1, 3]])
+    assert distinct._repeated_rows(rows) and not distinct._repeated_rows(rows[:2])
+    # Every weight 1 (the multiplier 0, then the odd bit): the hash is the plain sum, equal
+    # for the first two rows, so the rows themselves decide.
+    monkeypatch.setattr(distinct, "_COLUMN_MIX", np.uint64(0))
+    assert distinct._repeated_rows(rows) and not distinct._repeated_rows(rows[:2])
+
+
 def _source(batch, pot):
     from swarmgames.game.potentials import pair_weights
 

@@ -130,6 +130,43 @@ def test_shared_states_give_the_same_bits_and_differing_beliefs_are_not_shared(f
     assert np.array_equal(alone, shared)
 
 
+def test_chunks_of_distinct_states_give_the_same_bits_at_any_size():
+    # Games sharing members (ids repeated across games): a state is computed once a chunk,
+    # whatever the chunks, so every chunk size gives the same bits.
+    rng = np.random.default_rng(11)
+    mask, amask, states, nxt = _games(rng, 24, 7, 250.0)
+    ids = rng.integers(0, 40, (24, 7))
+    for b in range(1, 24):  # a member seen by two games is in the same state in both
+        prev = np.flatnonzero(np.isin(ids[b], ids[:b]))
+        for k in prev:
+            b0, k0 = np.argwhere(ids[:b] == ids[b, k])[0]
+            states[b, k], nxt[b, k], amask[b, k] = states[b0, k0], nxt[b0, k0], amask[b0, k0]
+    ids[:, 0] = 100 + np.arange(24)  # each game's owner appears once
+    args = (RASTER, SIGNAL, -100.0, mask, amask, states, nxt)
+    alone = compiled_windowed_unary(*args, softness_db=1.0)
+    for elems in (1, 10**4, 10**5, 10**8):
+        shared = compiled_windowed_unary(*args, softness_db=1.0, state_ids=ids, chunk_elems=elems)
+        assert np.array_equal(alone, shared)
+
+
+def test_state_chunks_hold_whole_games_and_at_most_cap_states():
+    from swarmgames.missions.coverage.kernel import _state_chunks
+
+    rng = np.random.default_rng(2)
+    row_game = np.repeat(np.arange(30), rng.integers(1, 6, 30))
+    slot = rng.integers(0, 25, row_game.size)
+    for cap in (5, 9, 40):
+        start, local, src, src_start = _state_chunks(row_game, slot, 25, cap)
+        assert start[0] == 0 and start[-1] == row_game.size and np.all(np.diff(start) > 0)
+        for c in range(start.size - 1):
+            lo, hi = start[c], start[c + 1]
+            assert lo == 0 or row_game[lo] != row_game[lo - 1]  # whole games
+            defs = src[src_start[c] : src_start[c + 1]]
+            assert defs.size <= cap and np.unique(slot[defs]).size == defs.size
+            # every row reads the entry of its own slot
+            assert np.array_equal(slot[defs][local[lo:hi]], slot[lo:hi])
+
+
 def test_edge_cases_one_robot_colocated_and_empty():
     one = _games(np.random.default_rng(0), 1, 1, 10.0)
     ref = windowed_unary(RASTER, SIGNAL, -100.0, *one, softness_db=1.0)

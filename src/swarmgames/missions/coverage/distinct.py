@@ -107,7 +107,7 @@ def distinct_games(ids: np.ndarray, mask: np.ndarray, *values: np.ndarray) -> Di
         return None
     ids = np.where(mask, np.asarray(ids, dtype=np.int64), -1)
     # Equal games hold equal sets of ids: without a repeated set there is nothing to share.
-    if np.unique(np.sort(ids, axis=1), axis=0).shape[0] == b:
+    if not _repeated_rows(np.sort(ids, axis=1)):
         return None
     rb, rk = np.nonzero(mask)
     slot = np.full((b, k), -1, dtype=np.int64)
@@ -130,6 +130,26 @@ def distinct_games(ids: np.ndarray, mask: np.ndarray, *values: np.ndarray) -> Di
     source[rows, order] = rep[:, None] * k + rep_order
     source[~mask] = -1
     return DistinctGames(games=games, source=source)
+
+
+#: Odd 64-bit multipliers of the columns in :func:`_repeated_rows` (Weyl sequence of the
+#: golden ratio).
+_COLUMN_MIX = np.uint64(0x9E3779B97F4A7C15)
+
+
+def _repeated_rows(rows: np.ndarray) -> bool:
+    """Whether two rows of the int array ``rows`` (R, K) are equal.
+
+    Rows with different hashes (a weighted sum of their entries modulo 2^64, one odd weight
+    per column) differ, so all-distinct hashes answer "no" at the cost of one 1-D sort;
+    equal hashes are checked on the rows themselves."""
+    k = rows.shape[1]
+    with np.errstate(over="ignore"):
+        weights = (np.arange(1, k + 1, dtype=np.uint64) * _COLUMN_MIX) | np.uint64(1)
+        hashes = (rows.astype(np.uint64) * weights).sum(axis=1, dtype=np.uint64)
+    if np.unique(hashes).size == rows.shape[0]:
+        return False
+    return np.unique(rows, axis=0).shape[0] < rows.shape[0]
 
 
 @dataclass(frozen=True)

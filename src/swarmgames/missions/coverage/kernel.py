@@ -303,12 +303,52 @@ def _gain_rows(
             out[b, k, x] = _dot(w, g, n_cells)
 
 
-def _distinct_states(rows_b, rows_k, ids, states, nxt, amask):
-    """Slot of every row in the table of distinct states, and the (game, variable) that
-    defines each slot (:func:`~swarmgames.missions.coverage.window.shared_rows`: equal ids,
-    states, next states and valid actions)."""
-    slot, src = shared_rows(ids, states[rows_b, rows_k], nxt[rows_b, rows_k], amask[rows_b, rows_k])
-    return slot, rows_b[src], rows_k[src]
+@njit(cache=True, nogil=True)
+def _state_chunks(row_game, slot, n_slots, cap):
+    """Rows (grouped by game, in the order to compute them) split into chunks of whole
+    games, each holding at most ``cap`` distinct slots (``cap`` >= a game's rows).
+
+    Returns ``(row_start, local, src, src_start)``: chunk ``c`` is rows
+    ``row_start[c]:row_start[c + 1]``; ``local`` is every row's slot in its chunk's table,
+    whose entry ``j`` is defined by row ``src[src_start[c] + j]``."""
+    n = row_game.size
+    chunk = np.full(n_slots, -1, np.int64)  # the chunk in which a slot was last placed
+    seen = np.full(n_slots, -1, np.int64)  # the row of the game that counted it
+    where = np.empty(n_slots, np.int64)
+    local = np.empty(n, np.int64)
+    src = np.empty(n, np.int64)
+    row_start = [0]
+    src_start = [0]
+    c, used, n_src = 0, 0, 0
+    i = 0
+    while i < n:
+        j = i
+        while j < n and row_game[j] == row_game[i]:
+            j += 1
+        new = 0
+        for t in range(i, j):
+            u = slot[t]
+            if chunk[u] != c and seen[u] != i:
+                seen[u] = i
+                new += 1
+        if used > 0 and used + new > cap:
+            row_start.append(i)
+            src_start.append(n_src)
+            c += 1
+            used = 0
+        for t in range(i, j):
+            u = slot[t]
+            if chunk[u] != c:
+                chunk[u] = c
+                where[u] = used
+                src[n_src] = t
+                n_src += 1
+                used += 1
+            local[t] = where[u]
+        i = j
+    row_start.append(n)
+    src_start.append(n_src)
+    return np.array(row_start), local, src[:n_src], np.array(src_start)
 
 
 def compiled_windowed_unary(
@@ -390,28 +430,31 @@ def compiled_windowed_unary(
     inv_tau = _f32(1.0) / win.tau if soft else _f32(1.0)
     consts = (win.d02, win.d2_floor, win.c0, win.c1, soft, inv_tau)
     geom = (origin, float(win.cell), int(r))
-    # Games in spatial order (by the cell of their first variable), in chunks whose table of
-    # distinct states stays under chunk_elems: the games of a chunk share most members.
+    # Rows grouped by game, the games in spatial order (by the cell of their first variable),
+    # in chunks of games whose distinct states fill at most cap rows of one table: the games
+    # of a chunk share most members, and a state is computed once a chunk.
     order = np.argsort(_morton(ctr[:, 0, 0], ctr[:, 0, 1]), kind="stable")
-    step = max(1, chunk_elems // max(1, K * A * n_cells))
-    # One table for every chunk (at most step * K distinct states): fresh pages would be
-    # faulted in and zeroed by the system at every chunk.
-    buf = np.empty((min(B, step) * K, A, n_cells), dtype=np.float32)
+    sub = mask[order] if rows is None else mask[order] & rows[order]
+    pos, rk = np.nonzero(sub)
+    rb = order[pos]
+    slot, first = shared_rows(ids[rb, rk], states[rb, rk], nxt[rb, rk], amask[rb, rk])
+    cap = max(K, chunk_elems // max(1, A * n_cells))
+    row_start, local, src, src_start = _state_chunks(pos, slot, first.size, cap)
+    # One table for every chunk: fresh pages would be faulted in and zeroed by the system
+    # at every chunk.
+    buf = np.empty((int(np.diff(src_start).max()), A, n_cells), dtype=np.float32)
     with POOL_LOCK:
         before = numba.get_num_threads()
         numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
         try:
-            for lo in range(0, B, step):
-                games = np.sort(order[lo : lo + step])
-                sub = mask[games] if rows is None else mask[games] & rows[games]
-                rb, rk = np.nonzero(sub)
-                rb = games[rb]
-                slot, ub, uk = _distinct_states(rb, rk, ids[rb, rk], states, nxt, amask)
-                table = buf[: ub.size]
-                _state_table(ub, uk, amask, nxt, ctr, *geom, jy, jx, *consts, table)
-                _gain_rows(rb, rk, slot, mask, amask, states, ctr, raster.weights, *geom,
-                           in_raster, in_square, float(win.pair_reach) ** 2, *consts, win.tau,
-                           table, out)  # fmt: skip
+            for c in range(row_start.size - 1):
+                lo, hi = row_start[c], row_start[c + 1]
+                defs = src[src_start[c] : src_start[c + 1]]
+                table = buf[: defs.size]
+                _state_table(rb[defs], rk[defs], amask, nxt, ctr, *geom, jy, jx, *consts, table)
+                _gain_rows(rb[lo:hi], rk[lo:hi], local[lo:hi], mask, amask, states, ctr,
+                           raster.weights, *geom, in_raster, in_square,
+                           float(win.pair_reach) ** 2, *consts, win.tau, table, out)  # fmt: skip
         finally:
             numba.set_num_threads(before)
     return out
