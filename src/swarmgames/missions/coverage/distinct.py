@@ -10,7 +10,7 @@ computing the unary once instead of N times removes a factor N from the stage's 
 (docs/bench.md, "No cliffs").
 
 :func:`distinct_games` finds such games from the variables' slots
-(:func:`~swarmgames.missions.coverage.window.shared_rows`: equal ids *and* equal values) and
+(:func:`~swarmgames.missions.coverage.slots.shared_rows`: equal ids *and* equal values) and
 returns the games to compute and how to copy their rows back. A batch without repeated games
 (a spread swarm, or routed delivery where every inbox differs) costs one sort of the member
 ids per game and is computed as before.
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from swarmgames.missions.coverage.window import shared_rows
+from swarmgames.missions.coverage.slots import shared_rows
 
 __all__ = ["CarriedGame", "DistinctGames", "distinct_games"]
 
@@ -114,8 +114,7 @@ def distinct_games(ids: np.ndarray, mask: np.ndarray, *values: np.ndarray) -> Di
     slot[rb, rk] = shared_rows(ids[rb, rk], *(np.asarray(v)[rb, rk] for v in values))[0]
     order = np.argsort(np.where(mask, slot, np.iinfo(np.int64).max), axis=1, kind="stable")
     key = np.take_along_axis(slot, order, axis=1)
-    _, first, group = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    group = group.reshape(-1)
+    first, group = _row_groups(key)
     if first.size == b:
         return None
     games = np.sort(first).astype(np.int64)
@@ -137,19 +136,34 @@ def distinct_games(ids: np.ndarray, mask: np.ndarray, *values: np.ndarray) -> Di
 _COLUMN_MIX = np.uint64(0x9E3779B97F4A7C15)
 
 
-def _repeated_rows(rows: np.ndarray) -> bool:
-    """Whether two rows of the int array ``rows`` (R, K) are equal.
-
-    Rows with different hashes (a weighted sum of their entries modulo 2^64, one odd weight
-    per column) differ, so all-distinct hashes answer "no" at the cost of one 1-D sort;
-    equal hashes are checked on the rows themselves."""
-    k = rows.shape[1]
+def _row_hashes(rows: np.ndarray) -> np.ndarray:
+    """A 64-bit hash of every row of the int array ``rows`` (R, K): the sum of its entries
+    with one odd weight per column, modulo 2^64. Rows with different hashes differ."""
     with np.errstate(over="ignore"):
-        weights = (np.arange(1, k + 1, dtype=np.uint64) * _COLUMN_MIX) | np.uint64(1)
-        hashes = (rows.astype(np.uint64) * weights).sum(axis=1, dtype=np.uint64)
-    if np.unique(hashes).size == rows.shape[0]:
+        weights = (np.arange(1, rows.shape[1] + 1, dtype=np.uint64) * _COLUMN_MIX) | np.uint64(1)
+        return (rows.astype(np.uint64) * weights).sum(axis=1, dtype=np.uint64)
+
+
+def _repeated_rows(rows: np.ndarray) -> bool:
+    """Whether two rows of the int array ``rows`` (R, K) are equal: all-distinct hashes
+    answer "no" at the cost of one 1-D sort; equal hashes are checked on the rows."""
+    if np.unique(_row_hashes(rows)).size == rows.shape[0]:
         return False
     return np.unique(rows, axis=0).shape[0] < rows.shape[0]
+
+
+def _row_groups(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(first, group)``: the groups of equal rows of the int array ``rows`` (R, K), as
+    ``np.unique(rows, axis=0, return_index=True, return_inverse=True)`` gives them up to
+    the groups' numbering (``first[g]``, the first row of group g; ``group``, every row's).
+    Grouped by hash with a 1-D sort; the lexicographic sort of the rows only when two
+    different rows share a hash."""
+    _, first, group = np.unique(_row_hashes(rows), return_index=True, return_inverse=True)
+    group = group.reshape(-1)
+    if not np.array_equal(rows, rows[first[group]]):
+        _, first, group = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+        group = group.reshape(-1)
+    return first, group
 
 
 @dataclass(frozen=True)

@@ -52,10 +52,10 @@ from numba.extending import intrinsic
 from swarmgames.game.meanfield_compiled import POOL_LOCK
 from swarmgames.missions.coverage.distinct import DistinctGames, distinct_games
 from swarmgames.missions.coverage.signal import SignalModel
+from swarmgames.missions.coverage.slots import shared_rows
 from swarmgames.missions.coverage.window import (
     RoiRaster,
     _morton,
-    shared_rows,
     window_geometry,
     windowed_unary,
 )

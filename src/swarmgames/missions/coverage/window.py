@@ -47,12 +47,12 @@ import numpy as np
 
 from swarmgames.missions.coverage.roi import GaussianROI
 from swarmgames.missions.coverage.signal import SignalModel
+from swarmgames.missions.coverage.slots import shared_rows
 
 __all__ = [
     "RoiRaster",
     "WindowGeometry",
     "floor_distance_sq",
-    "shared_rows",
     "window_geometry",
     "windowed_unary",
 ]
@@ -222,43 +222,6 @@ def window_geometry(
     )
 
 
-def shared_rows(ids: np.ndarray, *values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rows that may share their computation: equal ``ids`` *and* equal ``values``.
-
-    Ids such as ``2 * member + is_virtual`` say which rows should hold the same state, but a
-    robot's beliefs about a neighbour may differ between games (routed delivery), so a row
-    whose values differ from its id's first row gets a slot of its own.
-
-    Parameters
-    ----------
-    ids : ndarray of int, shape (R,)
-    *values : ndarray, shape (R, ...)
-        What must be equal (states, next states, valid actions).
-
-    Returns
-    -------
-    slot : ndarray of int64, shape (R,)
-        Rows with equal slots have equal ids and values; slots are 0 .. U - 1.
-    first : ndarray of int64, shape (U,)
-        A row of every slot.
-
-    Examples
-    --------
-    >>> slot, first = shared_rows(np.array([7, 7, 7]), np.array([[1.0], [1.0], [2.0]]))
-    >>> slot.tolist(), first.tolist()
-    ([0, 0, 1], [0, 2])
-    """
-    _, first, slot = np.unique(ids, return_index=True, return_inverse=True)
-    slot = slot.reshape(-1).astype(np.int64)
-    ref = first[slot]
-    same = np.ones(slot.size, dtype=bool)
-    for v in values:
-        same &= (v == v[ref]).reshape(slot.size, -1).all(axis=1)
-    own = np.flatnonzero(~same)
-    slot[own] = first.size + np.arange(own.size)
-    return slot, np.concatenate([first, own]).astype(np.int64)
-
-
 def _morton(ix: np.ndarray, iy: np.ndarray) -> np.ndarray:
     """Z-order (Morton) code of non-negative cell indices < 2**21: nearby cells, nearby codes."""
 
@@ -313,7 +276,8 @@ def windowed_unary(
     state_ids : (B, K) int, optional
         Hints of equal states across games (for example ``2 * member + is_virtual``); rows
         with equal ids share their action signals where their states and next states are
-        equal too (:func:`shared_rows`); default: compared by value.
+        equal too (:func:`~swarmgames.missions.coverage.slots.shared_rows`); default:
+        compared by value.
     workers : int
         Threads over chunks of games (numpy releases the GIL; the result does not depend on
         it).
