@@ -179,14 +179,17 @@ def _disc_d2(ddy, ddx, jy, jx, out, n):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _square_d2(px, py, pz, cx, cy, origin, cell, r, width, ddx, ddy, sq):
+def _square_d2(px, py, pz, cx, cy, origin, cell, r, width, d2f, ddx, ddy, sq):
     """The running minimum of ``sq`` with the squared distances from (px, py, pz) to the
     cells of the window's square around cell (cx, cy), ``sq[y * width + t]`` (the
     arithmetic of :func:`_disc_d2`). Rows are padded to ``width`` (whole vectors, no scalar
-    remainder; ``ddx``'s pad holds d_F²)."""
+    remainder; ``ddx``'s pad holds d_F²). ``sq`` holds at most ``d2f``, so a row whose
+    ``ddy`` reaches it is left as it is."""
     _axis_d2(px, origin[0], cx, r, cell, 0.0, ddx)
     _axis_d2(py, origin[1], cy, r, cell, pz**2, ddy)
     for y in range(2 * r + 1):
+        if ddy[y] >= d2f:
+            continue
         base = y * width
         for t in range(width):
             v = ddy[y] + ddx[t]
@@ -287,7 +290,7 @@ def _gain_rows(
             lx, ly, lz = states[b, other, 0], states[b, other, 1], states[b, other, 2]
             if (sx - lx) * (sx - lx) + (sy - ly) * (sy - ly) > pair_reach2:
                 continue
-            _square_d2(lx, ly, lz, cx, cy, origin, cell, r, width, ddx, ddy, sq)
+            _square_d2(lx, ly, lz, cx, cy, origin, cell, r, width, d2f, ddx, ddy, sq)
         _gather(sq, in_square, _f32(1.0), m, n_cells)
         _psi_inplace(m, n_cells, d02, d2f, c0, c1)
         if soft:

@@ -77,7 +77,12 @@ import numpy as np
 from swarmgames.missions.coverage.distinct import CarriedGame, distinct_games
 from swarmgames.missions.coverage.roi import GaussianROI
 from swarmgames.missions.coverage.signal import SignalModel
-from swarmgames.missions.coverage.window import RoiRaster, floor_distance_sq, windowed_unary
+from swarmgames.missions.coverage.window import (
+    RoiRaster,
+    floor_distance_sq,
+    max_move,
+    windowed_unary,
+)
 from swarmgames.missions.geometry import crowding_blocks
 
 __all__ = ["KERNELS", "CoveragePotentials"]
@@ -358,8 +363,7 @@ class CoveragePotentials:
         """The unary over each variable's window of cells (``signal_floor_dbm`` set)."""
         a = self.roi.cell_m
         reach = np.sqrt(floor_distance_sq(self.signal, self.signal_floor_dbm))
-        disp = np.linalg.norm(nxt[..., :2] - states[:, :, None, :2], axis=-1)
-        r = int(np.ceil((reach + float(disp[amask].max(initial=0.0))) / a)) + 1
+        r = int(np.ceil((reach + max_move(states, nxt, amask)) / a)) + 1
         if self._raster is None or self._raster.pad < r:
             self._raster = RoiRaster.from_roi(self.roi, r + 2)
         if self._compiled:

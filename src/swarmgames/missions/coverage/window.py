@@ -53,6 +53,7 @@ __all__ = [
     "RoiRaster",
     "WindowGeometry",
     "floor_distance_sq",
+    "max_move",
     "window_geometry",
     "windowed_unary",
 ]
@@ -98,6 +99,16 @@ def floor_distance_sq(signal: SignalModel, floor_dbm: float) -> float:
     d0 = signal.reference_distance_m
     d = d0 * 10.0 ** ((signal.t0_dbm - signal.l0_db - floor_dbm) / (10.0 * signal.exponent))
     return float(max(d, d0) ** 2)
+
+
+def max_move(states: np.ndarray, nxt: np.ndarray, amask: np.ndarray) -> float:
+    """The longest horizontal move of a valid action, metres (0 without one):
+    :math:`\\max \\lVert S_k(x)_{xy} - S_{k,xy} \\rVert` over ``amask`` (B, K, A), for
+    ``states`` (B, K, 3) and ``nxt`` (B, K, A, 3). The square root of the largest squared
+    move, which is the largest of the moves' norms bit for bit."""
+    dx = nxt[..., 0] - states[:, :, None, 0]
+    dy = nxt[..., 1] - states[:, :, None, 1]
+    return float(np.sqrt(np.max(dx * dx + dy * dy, where=amask, initial=0.0)))
 
 
 def _disc_offsets(rho: float) -> tuple[np.ndarray, np.ndarray]:
@@ -179,8 +190,7 @@ def window_geometry(
     d2f = floor_distance_sq(signal, floor_dbm)
     z2 = np.where(mask, states[..., 2], 0.0) ** 2
     reach_h = float(np.sqrt(max(d2f - float(z2.min(initial=np.inf)), 0.0)))
-    disp = np.linalg.norm(nxt[..., :2] - states[:, :, None, :2], axis=-1)
-    s_max = float(disp[amask].max(initial=0.0))
+    s_max = max_move(states, nxt, amask)
     # A cell's centre is within a/sqrt(2) of the cell holding the UAV: every cell an action
     # reaches above the floor lies within rho cells of the window's centre cell.
     rho = (reach_h + s_max) / a + np.sqrt(0.5)
