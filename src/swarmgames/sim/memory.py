@@ -195,6 +195,10 @@ def _potentials_bytes(mission, k: int, a: int, games: int, n: int) -> tuple[floa
     fields = min(games * k, n) * (a + 1) * float(g)
     best = 2.0 * min(float(games), max(1.0, pot.chunk_elems / max(1, k * a * g))) * k * g
     unary = 4.0 * (_UNARY_COPIES * block + fields + best)
+    if pot.signal_floor_dbm is not None and pot.kernel != "numpy":
+        # The compiled kernel's table of states' signals kept across batches: at most
+        # signal_table_elems values, two states per id (2 N + 2 ids).
+        unary += 4.0 * min(float(pot.signal_table_elems), 2.0 * (2 * n + 2) * a * g)
     pair = 8.0 * _PAIR_COPIES * min(entries, max(pot.chunk_elems / 4, k * a))
     if pot.separation_m > 0 and pot.separation_cost_db > 0:
         pair += crowding

@@ -52,6 +52,7 @@ from numba.extending import intrinsic
 from swarmgames.game.meanfield_compiled import POOL_LOCK
 from swarmgames.missions.coverage.distinct import DistinctGames, distinct_games
 from swarmgames.missions.coverage.signal import SignalModel
+from swarmgames.missions.coverage.signals import StateSignals
 from swarmgames.missions.coverage.slots import shared_rows
 from swarmgames.missions.coverage.window import (
     RoiRaster,
@@ -63,6 +64,9 @@ from swarmgames.missions.coverage.window import (
 __all__ = ["CoveragePairs", "compiled_windowed_unary", "exp_f32", "log1p_f32", "log_f32"]
 
 _f32 = np.float32
+
+#: Ids at or above this (or negative) are not kept across calls (:class:`StateSignals`).
+_MAX_KEPT_ID = 1 << 26
 
 
 @intrinsic
@@ -205,10 +209,11 @@ def _gather(src, idx, scale, out, n):
 
 @njit(cache=True, nogil=True, parallel=True)
 def _state_table(
-    src_b, src_k, amask, nxt, ctr, origin, cell, r, jy, jx, d02, d2f, c0, c1, soft, inv_tau,
-    table,
+    src_b, src_k, dest, amask, nxt, ctr, origin, cell, r, jy, jx, d02, d2f, c0, c1, soft,
+    inv_tau, table,
 ):  # fmt: skip
-    """Signal of every action of every distinct state over its window, ``table`` (U, A, C):
+    """Signal of every action of every distinct state (game ``src_b``, variable ``src_k``)
+    over its window, into row ``dest`` of ``table`` (rows, A, C):
     :math:`e^{(\\psi_F - F) / \\tau}` with the smooth maximum, else :math:`\\psi_F`. The disc's
     cell ``j`` is at row ``jy[j]`` and column ``jx[j]`` of the window's square."""
     n_a = amask.shape[2]
@@ -222,7 +227,7 @@ def _state_table(
         for x in range(n_a):
             if not amask[b, k, x]:
                 continue
-            row = table[u, x]
+            row = table[dest[u], x]
             _axis_d2(nxt[b, k, x, 0], origin[0], ctr[b, k, 0], r, cell, 0.0, ddx)
             _axis_d2(nxt[b, k, x, 1], origin[1], ctr[b, k, 1], r, cell, nxt[b, k, x, 2] ** 2, ddy)
             _disc_d2(ddy, ddx, jy, jx, row, n_cells)
@@ -368,6 +373,7 @@ def compiled_windowed_unary(
     state_ids: np.ndarray | None = None,
     chunk_elems: int = 2_000_000,
     rows: np.ndarray | None = None,
+    signals: StateSignals | None = None,
 ) -> np.ndarray:
     """:math:`\\tilde\\phi_u` of every game, variable and action, by the fused kernel.
 
@@ -388,6 +394,10 @@ def compiled_windowed_unary(
         Compute only these variables (the others are 0); every variable of ``mask`` still
         counts among the others of its game, and a computed variable's values are those of
         the whole computation, bit for bit. Default: every valid variable.
+    signals : StateSignals, optional
+        A table of action signals kept across calls (with ``state_ids``): a state found
+        there with the same values and window is not computed again
+        (:mod:`~swarmgames.missions.coverage.signals`). The result is the same bit for bit.
 
     Returns
     -------
@@ -441,23 +451,50 @@ def compiled_windowed_unary(
     pos, rk = np.nonzero(sub)
     rb = order[pos]
     slot, first = shared_rows(ids[rb, rk], states[rb, rk], nxt[rb, rk], amask[rb, rk])
+    # The kept table of signals needs small non-negative ids (a direct-address index).
+    row_ids = ids[rb, rk].astype(np.int64)
+    keep = signals is not None and state_ids is not None and rb.size > 0
+    keep = keep and row_ids.min() >= 0 and row_ids.max() < _MAX_KEPT_ID
     cap = max(K, chunk_elems // max(1, A * n_cells))
+    if keep:  # chunks of up to half the kept table: fewer, larger kernel launches
+        cap = max(cap, signals.capacity(A, n_cells, int(row_ids.max()) + 1) // 2)
     row_start, local, src, src_start = _state_chunks(pos, slot, first.size, cap)
-    # One table for every chunk: fresh pages would be faulted in and zeroed by the system
-    # at every chunk.
-    buf = np.empty((int(np.diff(src_start).max()), A, n_cells), dtype=np.float32)
+    most = int(np.diff(src_start).max())
+    def_ids = row_ids[src]
+    if keep:
+        # The values that an entry of the kept table must match, and the window's geometry.
+        dr, dk = rb[src], rk[src]
+        keys = np.concatenate([states[dr, dk], nxt[dr, dk].reshape(src.size, -1), amask[dr, dk]],
+                              axis=1)  # fmt: skip
+        consts_key = tuple(float(v) for v in (win.d02, win.d2_floor, win.c0, win.c1, inv_tau))
+        geometry = (r, n_cells, A, soft, *consts_key, *origin.tolist(), float(win.cell),
+                    raster.weights.shape)  # fmt: skip
+        signals.prepare(geometry, A, n_cells, most, int(def_ids.max()) + 1, keys.shape[1])
+        buf = signals.table
+    else:
+        # One table for every chunk: fresh pages would be faulted in and zeroed by the
+        # system at every chunk.
+        buf = np.empty((most, A, n_cells), dtype=np.float32)
     with POOL_LOCK:
         before = numba.get_num_threads()
         numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
         try:
             for c in range(row_start.size - 1):
                 lo, hi = row_start[c], row_start[c + 1]
-                defs = src[src_start[c] : src_start[c + 1]]
-                table = buf[: defs.size]
-                _state_table(rb[defs], rk[defs], amask, nxt, ctr, *geom, jy, jx, *consts, table)
-                _gain_rows(rb[lo:hi], rk[lo:hi], local[lo:hi], mask, amask, states, ctr,
+                part = slice(src_start[c], src_start[c + 1])
+                defs = src[part]
+                if keep:
+                    at, todo = signals.assign(def_ids[part], keys[part])
+                    defs = defs[todo]
+                    dest = at[todo]
+                else:
+                    at = dest = np.arange(defs.size)
+                if defs.size:
+                    _state_table(rb[defs], rk[defs], dest, amask, nxt, ctr, *geom, jy, jx,
+                                 *consts, buf)  # fmt: skip
+                _gain_rows(rb[lo:hi], rk[lo:hi], at[local[lo:hi]], mask, amask, states, ctr,
                            raster.weights, *geom, in_raster, in_square,
-                           float(win.pair_reach) ** 2, *consts, win.tau, table, out)  # fmt: skip
+                           float(win.pair_reach) ** 2, *consts, win.tau, buf, out)  # fmt: skip
         finally:
             numba.set_num_threads(before)
     return out

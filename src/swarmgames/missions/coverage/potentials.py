@@ -176,6 +176,11 @@ class CoveragePotentials:
         (:func:`~swarmgames.missions.coverage.window.windowed_unary`). The two agree to
         float32 rounding; each is bit-identical from run to run and on any number of threads.
         Without a signal floor the whole-grid integral is numpy's either way.
+    signal_table_elems : int, default 32_000_000
+        Upper bound on the float32 values (128 MiB) of the table of states' action signals
+        that the compiled windowed kernel keeps across batches
+        (:class:`~swarmgames.missions.coverage.signals.StateSignals`): a state is computed
+        once a stage while it stays there. The results do not depend on it.
     signal_floor_dbm : float or None, default None
         Signals below this level count as the level in eq. 5, and each variable's unary is
         integrated only over the cells its actions can change, relative to what the other
@@ -209,12 +214,14 @@ class CoveragePotentials:
     separation_mode: str = "pairwise"
     alpha_b: float = 0.001
     kernel: str = "auto"
+    signal_table_elems: int = 32_000_000
     last_integrate_s: float = field(default=0.0, init=False)
     _raster: RoiRaster | None = field(default=None, init=False, repr=False)
     _last_fields: tuple | None = field(default=None, init=False, repr=False)
     _last_repeats: tuple | None = field(default=None, init=False, repr=False)
     _unary_carry: object = field(default=None, init=False, repr=False)
     _pair_carry: object = field(default=None, init=False, repr=False)
+    _signals: object = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.separation_mode not in ("pairwise", "unary"):
@@ -368,7 +375,10 @@ class CoveragePotentials:
             self._raster = RoiRaster.from_roi(self.roi, r + 2)
         if self._compiled:
             from swarmgames.missions.coverage.kernel import compiled_windowed_unary
+            from swarmgames.missions.coverage.signals import StateSignals
 
+            if self._signals is None:
+                self._signals = StateSignals(self.signal_table_elems)
             return compiled_windowed_unary(
                 self._raster,
                 self.signal,
@@ -382,6 +392,7 @@ class CoveragePotentials:
                 state_ids=ids,
                 chunk_elems=self.chunk_elems // 2,
                 rows=rows,
+                signals=self._signals,
             )
         return windowed_unary(
             self._raster,

@@ -1,0 +1,148 @@
+"""The action signals of states, kept across the batches of a stage.
+
+A stage splits its local games into batches of similar size, so the games that hold a robot
+(its own and its neighbours') fall into different batches: at 1 000 UAVs the fused kernel
+(:mod:`swarmgames.missions.coverage.kernel`) found 6 036 distinct states in the batches of a
+stage that holds 1 933. :class:`StateSignals` keeps each state's table of action signals
+(A × C float32 values, 15 KB at A = 9 and a window of 421 cells) across the kernel's calls,
+so that a state is computed once a stage while it stays in the table.
+
+An entry is found by the state's id (``2 * member + is_virtual``) and used only when its
+values are equal to the state's, bit for bit: its state, next states and valid actions, for
+the same window geometry. A state is always computed by the same code from those values, so
+the results are the same whether its entry was computed in this call or an earlier one.
+Entries are replaced in the order of a clock hand, never one that the current chunk of games
+uses; the table holds at most ``max_elems`` float32 values.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+
+__all__ = ["StateSignals"]
+
+
+@njit(cache=True, nogil=True)
+def _assign(def_ids, def_keys, index, ids, keys, stamp, now, hand):
+    """The table row of every defining state of a chunk, and whether it must be computed.
+
+    A state whose id's row holds equal keys is found there; any other takes the row under
+    the clock hand that no state of this chunk (``stamp == now``) uses, which is then the
+    row of its id. Returns ``(rows, miss, hand)``."""
+    n, m = def_keys.shape
+    cap = ids.size
+    rows = np.empty(n, np.int64)
+    miss = np.zeros(n, np.bool_)
+    for i in range(n):
+        d = def_ids[i]
+        r = index[d]
+        if r >= 0 and ids[r] == d:
+            same = True
+            for j in range(m):
+                if keys[r, j] != def_keys[i, j]:
+                    same = False
+                    break
+            if same:
+                rows[i] = r
+                stamp[r] = now
+                continue
+        while stamp[hand] == now:
+            hand = (hand + 1) % cap
+        r = hand
+        hand = (hand + 1) % cap
+        old = ids[r]
+        if old >= 0 and index[old] == r:
+            index[old] = -1
+        ids[r] = d
+        keys[r] = def_keys[i]
+        stamp[r] = now
+        index[d] = r
+        rows[i] = r
+        miss[i] = True
+    return rows, miss, hand
+
+
+@dataclass(eq=False)
+class StateSignals:
+    """A table of states' action signals kept across calls of the fused coverage kernel.
+
+    Parameters
+    ----------
+    max_elems : int, default 32_000_000
+        Upper bound on the table's float32 values (128 MiB); the table holds at least one
+        chunk's states whatever the bound.
+
+    Attributes
+    ----------
+    table : ndarray of float32, shape (rows, A, C)
+        The signals, read by the kernel at the rows :meth:`assign` gives.
+    computed, found : int
+        States computed into the table, and found there already, since the table was made
+        (counters for the benchmarks).
+    """
+
+    max_elems: int = 32_000_000
+    table: np.ndarray = field(default=None, init=False, repr=False)
+    computed: int = field(default=0, init=False)
+    found: int = field(default=0, init=False)
+    _geometry: tuple | None = field(default=None, init=False, repr=False)
+    _ids: np.ndarray = field(default=None, init=False, repr=False)
+    _keys: np.ndarray = field(default=None, init=False, repr=False)
+    _stamp: np.ndarray = field(default=None, init=False, repr=False)
+    _index: np.ndarray = field(default=None, init=False, repr=False)
+    _now: int = field(default=0, init=False, repr=False)
+    _hand: int = field(default=0, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.max_elems, bool) or int(self.max_elems) != self.max_elems:
+            raise ValueError(f"max_elems must be an integer (got {self.max_elems!r})")
+        if self.max_elems < 1:
+            raise ValueError(f"max_elems must be >= 1 (got {self.max_elems})")
+
+    def capacity(self, n_actions: int, n_cells: int, ids_needed: int) -> int:
+        """Rows of the table for states of ``n_actions`` × ``n_cells`` signals and ids below
+        ``ids_needed``: as many as ``max_elems`` allow, at most two per id (at least 1)."""
+        per_row = max(1, int(n_actions) * int(n_cells))
+        return max(1, min(int(self.max_elems) // per_row, 2 * int(ids_needed)))
+
+    def prepare(self, geometry: tuple, n_actions: int, n_cells: int, rows: int, ids_needed: int,
+                key_width: int) -> None:  # fmt: skip
+        """Make the table ready for a call: ``geometry`` (any hashable description of the
+        window and its constants; a new one empties the table), at least ``rows`` rows (one
+        chunk's states) and ids below ``ids_needed``."""
+        cap = max(int(rows), self.capacity(n_actions, n_cells, ids_needed))
+        shape = (cap, n_actions, n_cells)
+        if geometry != self._geometry or self.table is None or self.table.shape[0] < rows:
+            self._geometry = geometry
+            self.table = np.empty(shape, dtype=np.float32)
+            self._ids = np.full(cap, -1, dtype=np.int64)
+            self._keys = np.empty((cap, key_width), dtype=np.float64)
+            self._stamp = np.full(cap, -1, dtype=np.int64)
+            self._index = np.full(0, -1, dtype=np.int64)
+            self._hand = 0
+        if self._index.size < ids_needed:
+            grown = np.full(max(int(ids_needed), 2 * self._index.size), -1, dtype=np.int64)
+            grown[: self._index.size] = self._index
+            self._index = grown
+
+    def assign(self, ids: np.ndarray, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(rows, miss)`` for one chunk's distinct states (``ids`` (U,), ``keys`` (U, m)
+        float64): the table row of each, and which must be computed into it."""
+        self._now += 1
+        rows, miss, self._hand = _assign(
+            np.ascontiguousarray(ids, dtype=np.int64),
+            np.ascontiguousarray(keys, dtype=np.float64),
+            self._index,
+            self._ids,
+            self._keys,
+            self._stamp,
+            self._now,
+            self._hand,
+        )
+        n_miss = int(miss.sum())
+        self.computed += n_miss
+        self.found += int(miss.size) - n_miss
+        return rows, miss
