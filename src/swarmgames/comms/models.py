@@ -371,7 +371,11 @@ class BeliefComms:
         )
         their_nbh = self.table.nbh[idx[use]]
         their_nbh = np.pad(their_nbh, ((0, 0), (0, width - their_nbh.shape[1])), constant_values=-1)
-        order = np.lexsort((np.where(ent_member == ent_owner, -1, ent_member), ent_owner))
+        # By owner, its own entry first, then its members in increasing order: one key, unique
+        # per entry, whose two blocks (own entries, then the members' in row order) are each
+        # sorted already, so the stable sort merges two runs.
+        key = ent_owner * (n + 1) + np.where(ent_member == ent_owner, 0, ent_member + 1)
+        order = np.argsort(key, kind="stable")
         extra = {}
         if self.context:
             extra = self._context(
@@ -382,7 +386,7 @@ class BeliefComms:
             member=ent_member[order].astype(np.int32),
             state=np.concatenate([states, believed])[order],
             mean=np.concatenate([composed.mean, self.table.mean[idx[use]]])[order],
-            nbh=np.concatenate([own_nbh, their_nbh])[order].astype(np.int32),
+            nbh=np.concatenate([own_nbh, their_nbh])[order].astype(np.int32, copy=False),
             age=np.concatenate([np.zeros(n), age])[order],
             **extra,
         )
