@@ -117,7 +117,10 @@ class StateSignals:
         shape = (cap, n_actions, n_cells)
         if geometry != self._geometry or self.table is None or self.table.shape[0] < rows:
             self._geometry = geometry
+            # Touched once here, not page by page as the clock hand first reaches each row
+            # (a fresh page costs about 10 µs on a virtual machine): the first call pays it.
             self.table = np.empty(shape, dtype=np.float32)
+            self.table.fill(0.0)
             self._ids = np.full(cap, -1, dtype=np.int64)
             self._keys = np.empty((cap, key_width), dtype=np.float64)
             self._stamp = np.full(cap, -1, dtype=np.int64)
