@@ -13,8 +13,13 @@ arrays. For every valid variable ``k`` of every game, on one thread:
    :math:`\\tau = 0`, else :math:`\\tau\\, \\mathrm{softplus}(t / \\tau)` with
    :math:`\\mathrm{softplus}(u) = \\max(u, 0) + \\log(1 + e^{-|u|})`), and its weighted sum.
 
-No (variables × actions × cells) array is ever held, and the signals of a state's actions are
-recomputed in every game that holds it (cheaper than finding the distinct states).
+No (variables × actions × cells) array is ever held. The signals of step 3 depend on the
+state alone: they are computed once for every distinct state (equal id, state, next states
+and valid actions: :func:`~swarmgames.missions.coverage.slots.shared_rows`) of a chunk of
+games in spatial order, into a table of states (:func:`_state_table`) that the variables'
+gains read (:func:`_gain_rows`); with a
+:class:`~swarmgames.missions.coverage.signals.StateSignals`, that table is kept across calls,
+and a state already there is not computed again.
 
 Arithmetic
 ----------
