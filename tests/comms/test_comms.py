@@ -84,6 +84,27 @@ def test_flooding_uses_only_links_that_exist_physically_and_in_the_table():
     assert inbox.sizes.tolist() == [1, 1]  # each robot's game holds only itself
 
 
+@pytest.mark.parametrize("seed", range(5))
+def test_usable_links_are_the_physical_links_that_the_tables_list(seed):
+    # The table lags the motion: some listed links are gone, some new ones unlisted. The
+    # links a message can take are scipy's element-wise product of the two patterns.
+    from swarmgames.comms.models import table_links
+    from swarmgames.network.links import link_graph
+
+    rng = np.random.default_rng(seed)
+    before = np.c_[rng.uniform(0, 1500, (40, 2)), np.full(40, 30.0)]
+    now = before + np.c_[rng.normal(0, 60.0, (40, 2)), np.zeros(40)]
+    snap = _bfs_snapshot(before)
+    comms = RoutedComms(40, 3, 2)
+    got = comms._links(snap, now, rng)
+    g = link_graph(now)
+    phys = sp.csr_array((np.ones(g.indices.size, np.int8), g.indices, g.indptr), shape=(40, 40))
+    want = phys.multiply(table_links(snap)).tocsr()
+    want.sort_indices()
+    assert np.array_equal(got.indptr, want.indptr) and np.array_equal(got.indices, want.indices)
+    assert got.nnz and got.nnz < phys.nnz  # some physical links are not listed yet
+
+
 def test_loss_draws_are_seeded_and_total_loss_isolates():
     pos = _line(5, 200.0)
     snap = _bfs_snapshot(pos)

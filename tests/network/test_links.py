@@ -49,3 +49,24 @@ def test_shadowed_graph_is_seeded_and_symmetric():
     assert np.array_equal(a.i, b.i) and np.array_equal(a.j, b.j)
     adj = a.adjacency().toarray()
     assert np.array_equal(adj, adj.T)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 30), st.lists(st.tuples(st.integers(0, 29), st.integers(0, 29)), max_size=80))
+def test_from_pairs_is_scipys_csr_of_both_directions(n, pairs):
+    # The CSR arrays and the sorted pairs, against scipy building the same matrix (duplicate
+    # pairs merged, rows sorted).
+    import scipy.sparse as sp
+
+    from swarmgames.network.links import LinkGraph
+
+    ij = np.array([(i, j) for i, j in pairs if i < n and j < n and i != j], dtype=np.int64)
+    i, j = (ij[:, 0], ij[:, 1]) if ij.size else (np.zeros(0, int), np.zeros(0, int))
+    g = LinkGraph.from_pairs(n, i, j)
+    a, b = np.minimum(i, j), np.maximum(i, j)
+    order = np.lexsort((b, a))
+    assert np.array_equal(g.i, a[order]) and np.array_equal(g.j, b[order])
+    ref = sp.csr_array((np.ones(2 * a.size, bool), (np.r_[a, b], np.r_[b, a])), shape=(n, n))
+    ref.sort_indices()
+    assert np.array_equal(g.indptr, ref.indptr) and np.array_equal(g.indices, ref.indices)
+    assert g.indptr.dtype == np.int32 and g.indices.dtype == np.int32

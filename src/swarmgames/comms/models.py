@@ -490,12 +490,22 @@ class RoutedComms(BeliefComms):
             pairs = cKDTree(pos).query_pairs(self.propagation.max_range(), output_type="ndarray")
             a, b = np.r_[pairs[:, 0], pairs[:, 1]], np.r_[pairs[:, 1], pairs[:, 0]]
             phys = sp.csr_array((np.ones(a.size, dtype=np.int8), (a, b)), shape=(n, n))
-        else:
-            g = link_graph(pos, self.propagation, rng)
-            phys = sp.csr_array(
-                (np.ones(g.indices.size, dtype=np.int8), g.indices, g.indptr), shape=(n, n)
-            )
-        return phys.multiply(table_links(snapshot)).tocsr()
+            return phys.multiply(table_links(snapshot)).tocsr()
+        # Both link sets as sorted keys u N + v; their intersection, the product's pattern,
+        # without scipy's element-wise product and its conversions.
+        g = link_graph(pos, self.propagation, rng)
+        rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(g.indptr))
+        phys = rows * n + g.indices  # sorted: the graph's rows are sorted
+        one = np.asarray(snapshot.hops) == 1
+        listed = np.sort(
+            np.asarray(snapshot.owner)[one].astype(np.int64) * n + np.asarray(snapshot.dest)[one]
+        )
+        pos_in = np.minimum(np.searchsorted(listed, phys), max(listed.size - 1, 0))
+        both = phys[listed[pos_in] == phys] if listed.size else phys[:0]
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(both // n, minlength=n))])
+        return sp.csr_array(
+            (np.ones(both.size, dtype=np.int8), (both % n).astype(np.int32), indptr), shape=(n, n)
+        )
 
     def _evolve_channel(self, adjacency: sp.csr_array, rng) -> None:
         """One stage of every usable link's Gilbert–Elliott state (new links start good)."""

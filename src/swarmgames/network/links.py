@@ -53,14 +53,15 @@ class LinkGraph:
         """Build from undirected pairs (any order, ``i != j``)."""
         a = np.minimum(i, j).astype(np.int32)
         b = np.maximum(i, j).astype(np.int32)
-        order = np.lexsort((b, a))
+        n = np.int64(n_robots)
+        # Sorted by (a, b) through one stable sort of a composite key (lexsort's order), and
+        # the CSR pattern of both directions from the sorted, unique keys u N + v.
+        order = np.argsort(a.astype(np.int64) * n + b, kind="stable")
         a, b = a[order], b[order]
-        adj = sp.csr_array(
-            (np.ones(2 * a.size, dtype=bool), (np.r_[a, b], np.r_[b, a])),
-            shape=(n_robots, n_robots),
-        )
-        adj.sort_indices()
-        arrays = [a, b, adj.indptr.astype(np.int32), adj.indices.astype(np.int32)]
+        keys = np.unique(np.concatenate([a.astype(np.int64) * n + b, b.astype(np.int64) * n + a]))
+        indptr = np.zeros(int(n_robots) + 1, dtype=np.int32)
+        np.cumsum(np.bincount(keys // n, minlength=int(n_robots)), out=indptr[1:])
+        arrays = [a, b, indptr, (keys % n).astype(np.int32)]
         for arr in arrays:
             arr.setflags(write=False)
         return cls(n_robots, *arrays)
