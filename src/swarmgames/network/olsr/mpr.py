@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from swarmgames.arrays import sorted_unique
+
 __all__ = ["WILL_ALWAYS", "WILL_NEVER", "select_mprs"]
 
 WILL_NEVER = 0
@@ -82,7 +84,7 @@ def select_mprs(
         else np.asarray(sym_willingness, dtype=np.int64)
     )
     # Step 1: WILL_ALWAYS neighbours. WILL_NEVER neighbours are not in N at all.
-    always = np.unique(sym_keys[will == WILL_ALWAYS])
+    always = sorted_unique(sym_keys[will == WILL_ALWAYS])
     rj = owner.astype(np.int64) * n + neigh
     srt = np.argsort(sym_keys)
     sym_sorted = sym_keys[srt]

@@ -16,6 +16,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from swarmgames.arrays import sorted_unique
+
 __all__ = [
     "DENSE_LIMIT",
     "KeySet",
@@ -125,7 +127,7 @@ class KeyedTable:
     def drop_prefixes(self, prefixes: np.ndarray, base: int) -> None:
         """Remove every tuple whose ``key // base`` is in ``prefixes``."""
         if self.keys.size and len(prefixes):
-            self.keep(~sorted_contains(np.unique(prefixes), self.keys // base))
+            self.keep(~sorted_contains(sorted_unique(prefixes), self.keys // base))
 
 
 class KeySet:
