@@ -58,6 +58,7 @@ from swarmgames.comms.wire import airtime_s, message_bytes
 from swarmgames.game.local import broadcast, pad_rows
 from swarmgames.names import COMMS_MODELS
 from swarmgames.network.links import link_graph
+from swarmgames.network.olsr.tables import sorted_contains
 from swarmgames.network.propagation import PropagationModel
 from swarmgames.topology import TopologySnapshot
 
@@ -500,8 +501,7 @@ class RoutedComms(BeliefComms):
         listed = np.sort(
             np.asarray(snapshot.owner)[one].astype(np.int64) * n + np.asarray(snapshot.dest)[one]
         )
-        pos_in = np.minimum(np.searchsorted(listed, phys), max(listed.size - 1, 0))
-        both = phys[listed[pos_in] == phys] if listed.size else phys[:0]
+        both = phys[sorted_contains(listed, phys)]
         indptr = np.concatenate([[0], np.cumsum(np.bincount(both // n, minlength=n))])
         return sp.csr_array(
             (np.ones(both.size, dtype=np.int8), (both % n).astype(np.int32), indptr), shape=(n, n)

@@ -455,9 +455,9 @@ def compiled_windowed_unary(
     sub = mask[order] if rows is None else mask[order] & rows[order]
     pos, rk = np.nonzero(sub)
     rb = order[pos]
-    slot, first = shared_rows(ids[rb, rk], states[rb, rk], nxt[rb, rk], amask[rb, rk])
-    # The kept table of signals needs small non-negative ids (a direct-address index).
     row_ids = ids[rb, rk].astype(np.int64)
+    slot, first = shared_rows(row_ids, states[rb, rk], nxt[rb, rk], amask[rb, rk])
+    # The kept table of signals needs small non-negative ids (a direct-address index).
     keep = signals is not None and state_ids is not None and rb.size > 0
     keep = keep and row_ids.min() >= 0 and row_ids.max() < _MAX_KEPT_ID
     cap = max(K, chunk_elems // max(1, A * n_cells))
@@ -465,8 +465,8 @@ def compiled_windowed_unary(
         cap = max(cap, signals.capacity(A, n_cells, int(row_ids.max()) + 1) // 2)
     row_start, local, src, src_start = _state_chunks(pos, slot, first.size, cap)
     most = int(np.diff(src_start).max())
-    def_ids = row_ids[src]
     if keep:
+        def_ids = row_ids[src]
         # The values that an entry of the kept table must match, and the window's geometry.
         dr, dk = rb[src], rk[src]
         keys = np.concatenate([states[dr, dk], nxt[dr, dk].reshape(src.size, -1), amask[dr, dk]],

@@ -81,7 +81,7 @@ class StateSignals:
         The signals, read by the kernel at the rows :meth:`assign` gives.
     computed, found : int
         States computed into the table, and found there already, since the table was made
-        (counters for the benchmarks).
+        (what the table saved).
     """
 
     max_elems: int = 32_000_000
