@@ -304,31 +304,3 @@ def test_tc_regression_three_nodes():
     # A holds B's TC (topology tuples with last = B); its route to C is 2 hops (2-hop set).
     assert a * 3 + b in e.topology.keys.tolist()
     assert p.snapshot().hop_matrix()[a].tolist() == [0, 1, 2]
-
-
-def test_hello_rounds_built_in_chunks_give_the_same_tables(monkeypatch):
-    """A dense swarm's HELLO round lists N K1^2 2-hop entries and is built in chunks of
-    (receiver, sender) pairs; the tables do not depend on the chunk size."""
-    import swarmgames.network.olsr.engine as engine_module
-    from swarmgames.network.olsr.provider import OlsrProvider
-
-    def run():
-        rng = np.random.default_rng(5)
-        pos = np.c_[rng.uniform(-150, 150, (40, 2)), np.full(40, 30.0)]
-        p = OlsrProvider(40, seed=5)
-        p.reset(pos)
-        hops = []
-        for k in range(1, 12):
-            pos[:, :2] += rng.normal(0, 10, (40, 2))
-            hops.append(p.advance(0.5 * k, pos).hop_matrix())
-        e = p.engine
-        return hops, e.two_hop.keys.copy(), e.two_hop.cols["expiry"].copy()
-
-    whole = run()
-    monkeypatch.setattr(engine_module, "_HELLO_CHUNK", 97)
-    chunked = run()
-    for a, b in zip(whole[0], chunked[0], strict=True):
-        np.testing.assert_array_equal(a, b)
-    np.testing.assert_array_equal(whole[1], chunked[1])
-    np.testing.assert_array_equal(whole[2], chunked[2])
-    assert whole[1].size > 20 * 97  # the round was cut in many chunks

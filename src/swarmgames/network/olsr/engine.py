@@ -81,13 +81,10 @@ from swarmgames.network.olsr.tables import (
     first_per_key,
     live_at,
     sorted_contains,
-    split_keys,
 )
 from swarmgames.network.olsr.traffic import ControlTraffic
+from swarmgames.network.olsr.twohop import round_tuples, strict_two_hop
 from swarmgames.network.parameters import OlsrParameters
-
-#: 2-hop entries of a HELLO round built at once (a dense swarm's round has N K1^2 of them).
-_HELLO_CHUNK = 1 << 21
 
 __all__ = ["OlsrEngine"]
 
@@ -331,18 +328,18 @@ class OlsrEngine:
         return np.minimum(clock, t)
 
     def _valid(self, clock: np.ndarray):
-        """Symmetric links and 2-hop triples valid at each owner's ``clock``."""
+        """Symmetric links and strict 2-hop triples (:func:`~.twohop.strict_two_hop`) valid
+        at each owner's ``clock``."""
         n = self._nn
         lk = self.links.keys
         owner = lk // n
         sym_ok = self.links.cols["sym"] > clock[owner]
-        s_owner, s_neigh = owner[sym_ok], lk[sym_ok] % n
+        sym_keys = lk[sym_ok]
+        s_owner, s_neigh = owner[sym_ok], sym_keys % n
         s_created = self.links.cols["created"][sym_ok]
         th = self.two_hop
-        t_owner, t_neigh, t_x = split_keys(
-            th.keys[live_at(th.keys, n * n, th.cols["expiry"], clock)], n
-        )
-        return s_owner, s_neigh, s_created, t_owner, t_neigh, t_x
+        strict = strict_two_hop(th.keys, th.cols["expiry"], clock, sym_keys, n)
+        return (s_owner, s_neigh, s_created, *strict)
 
     def routes(self, t: float | None = None, max_hops: int | None = None):
         """Every node's routing table at time ``t`` (default: now).
@@ -369,27 +366,21 @@ class OlsrEngine:
             t_x,
             tp,
             max_hops=max_hops,
+            strict=True,
         )
 
     def mpr_keys(self, t: float) -> np.ndarray:
         """Sorted keys ``r * N + m`` of every node's MPR set, computed on the state at ``t``."""
         clock = np.full(self.n, float(t))
         s_owner, s_neigh, s_created, t_owner, t_neigh, t_x = self._valid(clock)
-        n = self._nn
-        sym_keys = s_owner * n + s_neigh
-        # Strict 2-hop: relay symmetric, target neither the owner nor one of its neighbours.
-        base = t_owner.astype(np.int64) * n  # the triples are int32 (split_keys)
-        ok = sorted_contains(sym_keys, base + t_neigh)
-        ok &= (t_x != t_owner) & ~sorted_contains(sym_keys, base + t_x)
-        # 2-hop keys are unique, so the triples are too.
         return select_mprs(
             self.n,
             s_owner,
             s_neigh,
             s_created,
-            t_owner[ok],
-            t_neigh[ok],
-            t_x[ok],
+            t_owner,
+            t_neigh,
+            t_x,
             self.cfg.willingness,
         )
 
@@ -487,22 +478,8 @@ class OlsrEngine:
         c_keys = hk[two]
         if c_keys.size and rs.size:
             ptr = np.searchsorted(c_keys, np.arange(self.n + 1, dtype=np.int64) * n)
-            # In chunks of (r, j) pairs: a HELLO round of a dense swarm lists N K1^2 2-hop
-            # entries, and only their keys, not every intermediate, should exist at once.
-            ends = np.cumsum(ptr[js + 1] - ptr[js])
-            cuts = np.searchsorted(ends, np.arange(1, ends[-1] // _HELLO_CHUNK + 1) * _HELLO_CHUNK)
-            parts = []
-            for lo, hi in zip(np.r_[0, cuts], np.r_[cuts, js.size], strict=True):
-                cpos, cidx = csr_gather(ptr, js[lo:hi])
-                x = c_keys[cpos] % n
-                owner = rs[lo:hi][cidx]
-                ok = x != owner
-                parts.append(((owner * n + js[lo:hi][cidx]) * n + x)[ok])
-            keys = np.concatenate(parts)
-            del parts
-            keys.sort()
-            # The expiry is the sender's HELLO time plus the hold time: read it from the key.
-            self.two_hop.upsert(keys, expiry=d_of_sender[(keys // n) % n] + V)
+            keys, expiry = round_tuples(rs, js, c_keys, ptr, d_of_sender + V, n)
+            self.two_hop.upsert(keys, expiry=expiry)
         # MPR-selector set, RFC 8.4.1.
         sel = ntype == _MPR_NEIGH
         if sel.any():

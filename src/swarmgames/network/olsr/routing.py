@@ -42,6 +42,7 @@ def compute_routes(
     th_two_hop: np.ndarray,
     topology=None,
     max_hops: int | None = None,
+    strict: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every node's routing table.
 
@@ -58,6 +59,10 @@ def compute_routes(
         ``owner`` with that ``last``, the index of the key and the tuple's ``dest``.
     max_hops : int, optional
         Stop the iteration at this hop count.
+    strict : bool, default False
+        The 2-hop tuples are strict already (:func:`~.twohop.strict_two_hop`: ``j`` a
+        symmetric neighbour of ``r``, ``x`` neither ``r`` nor a symmetric neighbour of it),
+        so they are not filtered again; the routes are the same.
 
     Returns
     -------
@@ -74,9 +79,12 @@ def compute_routes(
     # 2 hops: the relay must itself be routed at 1 hop.
     if th_owner.size and (max_hops is None or max_hops >= 2):
         k2 = th_owner.astype(np.int64) * n + th_two_hop
-        relay = th_owner.astype(np.int64) * n + th_neigh
-        ok = sorted_contains(k1, relay) & ~sorted_contains(k1, k2) & (th_two_hop != th_owner)
-        k2, nh2 = _first_per_key(k2[ok], np.asarray(th_neigh)[ok].astype(np.int64))
+        nh2 = np.asarray(th_neigh)
+        if not strict:
+            relay = th_owner.astype(np.int64) * n + th_neigh
+            ok = sorted_contains(k1, relay) & ~sorted_contains(k1, k2) & (th_two_hop != th_owner)
+            k2, nh2 = k2[ok], nh2[ok]
+        k2, nh2 = _first_per_key(k2, nh2.astype(np.int64))
         keys.append(k2)
         hops.append(np.full(k2.size, 2, dtype=np.int16))
         nexts.append(nh2)
