@@ -230,6 +230,29 @@ def test_pair_source_equals_the_weighted_pair_table(crowding):
     assert np.array_equal(src.select([4, 1]).table(np.arange(2)), got[[4, 1]])
 
 
+@pytest.mark.parametrize("crowding", [0.0, 0.1])
+@pytest.mark.parametrize("seed", range(3))
+def test_pair_sums_at_a_profile_are_numpys_of_the_rows_bit_for_bit(crowding, seed):
+    """``at_sums``: the rows at a profile summed over their outer axis and read at the
+    profile, as numpy makes them of ``at``'s (B, K, A, K) rows, padding and invalid actions
+    (whose entries may be -0) included, bit for bit."""
+    from swarmgames.game.equilibrium import _at_profile
+
+    pot = CoveragePotentials(
+        ROI, SIGNAL, separation_m=50.0, separation_cost_db=crowding, alpha_b=0.002
+    )
+    batch = _pair_batch(seed, b=5, k=9, spread=40.0)
+    src = pot.pair_source(batch, 0.004, np.float32)
+    rng = np.random.default_rng(seed)
+    pick = np.where(batch.action_mask, rng.random(batch.action_mask.shape), -1.0)
+    x = np.where(batch.mask, np.argmax(pick, axis=2), 0)
+    sums, at_kl = src.at_sums(x)
+    rows = src.at(x)
+    assert sums.dtype == at_kl.dtype == np.float32
+    assert np.array_equal(sums.view(np.int32), rows.sum(axis=3).view(np.int32))
+    assert np.array_equal(at_kl.view(np.int32), _at_profile(rows, x).view(np.int32))
+
+
 def test_pair_source_only_for_float32_with_the_compiled_kernel():
     batch = _pair_batch(0)
     assert CoveragePotentials(ROI, SIGNAL).pair_source(batch, 0.001, np.float64) is None

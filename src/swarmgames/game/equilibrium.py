@@ -69,17 +69,35 @@ def _check_profile(payoffs: GamePayoffs, profile) -> np.ndarray:
     return x
 
 
-def _fields(payoffs: GamePayoffs, x: np.ndarray, at_l: np.ndarray | None = None) -> np.ndarray:
+def _pair_sums(payoffs: GamePayoffs, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``Σ_l W[b, k, a, l, x_l]`` (B, K, A) and ``W[b, k, x_k, l, x_l]`` (B, K, K) at the
+    pure profile ``x``: from the pair source's ``at_sums`` where it has one (equal bit for
+    bit, without the B K² A rows), else summed and gathered from ``payoffs.pair_at(x)``."""
+    at_sums = getattr(payoffs.pair_source, "at_sums", None)
+    if callable(at_sums):
+        return at_sums(x)
+    at_l = payoffs.pair_at(x)
+    return at_l.sum(axis=3), _at_profile(at_l, x)
+
+
+def _pairs_at(payoffs: GamePayoffs, x: np.ndarray) -> np.ndarray:
+    """The second of :func:`_pair_sums` alone: ``W[b, k, x_k, l, x_l]``, (B, K, K)."""
+    if callable(getattr(payoffs.pair_source, "at_sums", None)):
+        return _pair_sums(payoffs, x)[1]
+    return _at_profile(payoffs.pair_at(x), x)
+
+
+def _fields(payoffs: GamePayoffs, x: np.ndarray, sums: np.ndarray | None = None) -> np.ndarray:
     """E[M | X_k = a] with every other variable at x: (B, K, A), up to terms free of x_k
-    (``at_l``: ``payoffs.pair_at(x)`` when the caller has it)."""
+    (``sums``: the first of :func:`_pair_sums` when the caller has it)."""
     field = payoffs.unary.astype(np.float64)
     if payoffs.has_pair:
-        field = field + (payoffs.pair_at(x) if at_l is None else at_l).sum(axis=3)
+        field = field + (_pair_sums(payoffs, x)[0] if sums is None else sums)
     return field
 
 
-def _gains(payoffs: GamePayoffs, x: np.ndarray, at_l: np.ndarray | None = None) -> np.ndarray:
-    field = _fields(payoffs, x, at_l)
+def _gains(payoffs: GamePayoffs, x: np.ndarray, sums: np.ndarray | None = None) -> np.ndarray:
+    field = _fields(payoffs, x, sums)
     best = np.where(payoffs.action_mask, field, -np.inf).max(axis=2)
     cur = np.take_along_axis(field, x[:, :, None], axis=2)[:, :, 0]
     return np.where(payoffs.mask, np.maximum(best - cur, 0.0), 0.0)
@@ -100,14 +118,15 @@ def _at_profile(at_l: np.ndarray, x: np.ndarray) -> np.ndarray:
     return np.take(np.ascontiguousarray(at_l).reshape(-1), at + np.arange(n_l))
 
 
-def _payoff(payoffs: GamePayoffs, x: np.ndarray, players, at_l: np.ndarray | None = None):
+def _payoff(payoffs: GamePayoffs, x: np.ndarray, players, at_kl: np.ndarray | None = None):
     unary = np.take_along_axis(payoffs.unary, x[:, :, None], axis=2)[:, :, 0]
     if players is not None:
         players = np.asarray(players, dtype=bool)
         unary = np.where(players, unary, 0.0)
     total = unary.sum(axis=1)
     if payoffs.has_pair:
-        at_kl = _at_profile(payoffs.pair_at(x) if at_l is None else at_l, x)  # (B, K, K)
+        if at_kl is None:
+            at_kl = _pairs_at(payoffs, x)  # (B, K, K)
         if players is not None:
             at_kl = np.where(players[:, :, None] | players[:, None, :], at_kl, 0.0)
         total = total + 0.5 * at_kl.sum(axis=(1, 2))
@@ -371,16 +390,17 @@ def profile_payoff(payoffs: GamePayoffs, profile, players=None) -> np.ndarray:
 
 def profile_measures(payoffs: GamePayoffs, profile, players=None) -> tuple[np.ndarray, np.ndarray]:
     """:func:`profile_payoff` and :func:`local_regret` of the same ``profile`` from one
-    evaluation of the pairwise rows at it (``payoffs.pair_at``, the costly part: B K² A
-    entries), each equal to what the function alone returns.
+    evaluation of the pairwise rows at it (the costly part: B K² A entries, summed and read
+    at the profile by the pair source's ``at_sums`` where it has one, else from
+    ``payoffs.pair_at``), each equal to what the function alone returns.
 
     Returns
     -------
     payoff, regret : ndarray, shape (B,)
     """
     x = _check_profile(payoffs, profile)
-    at_l = payoffs.pair_at(x) if payoffs.has_pair else None
-    return _payoff(payoffs, x, players, at_l), _gains(payoffs, x, at_l).max(axis=1)
+    sums, at_kl = _pair_sums(payoffs, x) if payoffs.has_pair else (None, None)
+    return _payoff(payoffs, x, players, at_kl), _gains(payoffs, x, sums).max(axis=1)
 
 
 def enumerate_payoffs(

@@ -117,6 +117,11 @@ class PairSource(Protocol):
     ``(B, K, A, K)`` (what the payoff and regret measurements need, without the table);
     ``select(games)`` returns the source of a subset of games.
 
+    Optional: ``at_sums(profile) -> (sums, at_kl)``, ``at(profile).sum(axis=3)`` (B, K, A)
+    and ``at(profile)[b, k, profile[b, k], l]`` (B, K, K), equal to them bit for bit
+    without holding :meth:`at`'s B K² A rows: the payoff and regret measurements use it
+    (:func:`~swarmgames.game.equilibrium.profile_measures`).
+
     Optional, together: ``shared() -> (head, rank)`` and ``ranked_table(games)``, for
     batches in which games hold the same variables in another order (a dense swarm, where
     every game holds every robot). ``rank`` (B, K) int ranks every game's variables

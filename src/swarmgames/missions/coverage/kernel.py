@@ -572,6 +572,20 @@ def _pair_tables(games, points, valid, scale, offset, d02, inv_sep, crowd, weigh
             w[i, k * n_a : (k + 1) * n_a] = 0.0
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _profile_row(px, py, pz, vm, used, v, i, n_a, scale, offset, d02, inv_sep, crowd, weight,
+                 row):  # fmt: skip
+    """``row[m] = W[b, k, a, v, x_v]`` over the points ``m = k A + a`` of game b, from the
+    point ``i = v A + x_v`` of variable v at its profile (0 where v is padding, on v's own
+    points and past ``used``)."""
+    row[used:] = 0.0
+    if vm[i] == 0.0:
+        row[:used] = 0.0
+    else:
+        _pair_row(px, py, pz, i, vm, used, scale, offset, d02, inv_sep, crowd, weight, row)
+    row[v * n_a : (v + 1) * n_a] = 0.0
+
+
 @njit(cache=True, nogil=True, parallel=True)
 def _pair_at(profile, points, valid, scale, offset, d02, inv_sep, crowd, weight, out):
     """``out[b, l, k * A + a] = W[b, k, a, l, profile[b, l]]`` (B, K, K A): for every
@@ -581,16 +595,31 @@ def _pair_at(profile, points, valid, scale, offset, d02, inv_sep, crowd, weight,
     for b in prange(n_b):
         px, py, pz, vm, used = _game_points(points, valid, b)
         for v in range(n_k):
-            row = out[b, v]
-            row[used:] = 0.0
-            i = v * n_a + profile[b, v]
-            if vm[i] == 0.0:
-                row[:used] = 0.0
-            else:
-                _pair_row(
-                    px, py, pz, i, vm, used, scale, offset, d02, inv_sep, crowd, weight[b], row
-                )
-            row[v * n_a : (v + 1) * n_a] = 0.0
+            _profile_row(px, py, pz, vm, used, v, v * n_a + profile[b, v], n_a, scale, offset,
+                         d02, inv_sep, crowd, weight[b], out[b, v])  # fmt: skip
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _pair_sums(profile, points, valid, scale, offset, d02, inv_sep, crowd, weight, sums, at_kl):
+    """The rows of :func:`_pair_at` summed and read at the profile, without holding them:
+    ``sums[b, k, a] = Σ_l W[b, k, a, l, profile[b, l]]``, in float32 from +0 in increasing
+    l (numpy's order for the sum over the rows' outer axis), and ``at_kl[b, k, l] = W[b, k,
+    profile[b, k], l, profile[b, l]]``. A zero entry changes no partial sum (+0 plus ±0 is
+    +0), so the sums stop at each game's last valid point."""
+    n_b, n_k, n_a = valid.shape
+    n = n_k * n_a
+    for b in prange(n_b):
+        px, py, pz, vm, used = _game_points(points, valid, b)
+        row = np.empty(n, np.float32)
+        acc = sums[b].reshape(n)
+        acc[:] = 0.0
+        for v in range(n_k):
+            _profile_row(px, py, pz, vm, used, v, v * n_a + profile[b, v], n_a, scale, offset,
+                         d02, inv_sep, crowd, weight[b], row)  # fmt: skip
+            for j in range(used):
+                acc[j] += row[j]
+            for k in range(n_k):
+                at_kl[b, k, v] = row[k * n_a + profile[b, k]]
 
 
 @dataclass(frozen=True, eq=False)
@@ -666,6 +695,18 @@ class CoveragePairs:
         with POOL_LOCK:
             _pair_at(prof, self.points, self.valid, *self._consts(), out)
         return out.reshape(b, k, k, a).transpose(0, 2, 3, 1)
+
+    def at_sums(self, profile: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``at(profile).sum(axis=3)``, (B, K, A), and ``W[b, k, profile[b, k], l,
+        profile[b, l]]``, (B, K, K), both float32 and equal to what numpy makes of
+        :meth:`at`'s rows bit for bit, without the (B, K, A, K) rows."""
+        b, k, a = self.valid.shape
+        sums = np.empty((b, k, a), dtype=np.float32)
+        at_kl = np.empty((b, k, k), dtype=np.float32)
+        prof = np.ascontiguousarray(profile, dtype=np.int64)
+        with POOL_LOCK:
+            _pair_sums(prof, self.points, self.valid, *self._consts(), sums, at_kl)
+        return sums, at_kl
 
     @cached_property
     def _order(self) -> np.ndarray:

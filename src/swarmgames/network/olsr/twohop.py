@@ -116,10 +116,10 @@ def _strict(keys, expiry, clock, sym, n, out):
             b0 = a0 + b * n
             b1 = b0 + n
             relay_ok = flags[b]
-        if not relay_ok or not expiry[i] > c:
+        if not relay_ok:
             continue
         x = k - b0
-        if x == a or flags[x]:
+        if x == a or flags[x] or not expiry[i] > c:  # the expiry last: rarely read in a clique
             continue
         if write:
             out[0, m] = a
