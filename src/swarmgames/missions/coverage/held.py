@@ -21,6 +21,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit, prange
+
+from swarmgames.game.meanfield_compiled import POOL_LOCK
 
 __all__ = ["HELD_SHARE_MIN", "HeldPairs"]
 
@@ -66,14 +69,16 @@ class HeldPairs:
         return out
 
     def at(self, profile: np.ndarray) -> np.ndarray:
-        """``W[b, k, a, l, profile[b, l]]``, (B, K, A, K): gathered from the group tables."""
-        _, k, a = self.tables.shape[:3]
-        x = np.asarray(profile, dtype=np.int64)
-        row = (self.group[:, None] * k + self.var)[:, :, None] * a + np.arange(a)  # (B, K, A)
-        col = self.var * a + x  # (B, K): (l, x_l)
-        flat = row[:, :, :, None] * (k * a) + col[:, None, None, :]
-        valid = self.mask[:, :, None, None] & self.mask[:, None, None, :]
-        return np.where(valid, np.take(self.tables.reshape(-1), flat), 0.0)
+        """``W[b, k, a, l, profile[b, l]]``, (B, K, A, K): gathered from the group tables by
+        one compiled pass (0 where k or l is padding)."""
+        b, k = self.var.shape
+        out = np.empty((b, k, self.tables.shape[2], k), dtype=self.tables.dtype)
+        group, var, x = (
+            np.ascontiguousarray(v, dtype=np.int64) for v in (self.group, self.var, profile)
+        )
+        with POOL_LOCK:
+            _held_at(self.tables, group, var, np.ascontiguousarray(self.mask), x, out)
+        return out
 
     def select(self, games) -> HeldPairs:
         """The source of a subset of games."""
@@ -118,3 +123,22 @@ class HeldPairs:
             order = np.argsort(ranks[r])
             out[i] = self.tables[r].take(order, axis=0).take(order, axis=2)
         return out
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _held_at(tables, group, var, mask, x, out):
+    """``out[b, k, a, l] = tables[group[b], var[b, k], a, var[b, l], x[b, l]]`` where k and l
+    are valid variables of game b, +0 elsewhere."""
+    n_b, n_k = var.shape
+    n_a = tables.shape[2]
+    for b in prange(n_b):
+        t = tables[group[b]]
+        for k in range(n_k):
+            if not mask[b, k]:
+                out[b, k] = 0.0
+                continue
+            vk = var[b, k]
+            for a in range(n_a):
+                row = out[b, k, a]
+                for m in range(n_k):
+                    row[m] = t[vk, a, var[b, m], x[b, m]] if mask[b, m] else 0.0
