@@ -6,8 +6,8 @@ tuple is identified by an ``int64`` key that packs its node indices (for example
 ``owner * N + neighbour``) and its fields are parallel ``float64`` columns. Keys are kept sorted,
 so look-ups are ``searchsorted`` and updates are vectorised merges: no per-tuple Python objects.
 The two passes a dense swarm repeats over tens of millions of 2-hop tuples, membership in a
-flag array and the merge of a HELLO round's new tuples, are compiled loops (Numba), and so
-are the two that read node indices back from sorted keys (one integer division per owner,
+flag array and the merge of a HELLO round's new tuples, are compiled loops (Numba), and so is
+the test of the tuples' expiry against their owner's clock (one integer division per owner,
 not per tuple).
 """
 
@@ -25,7 +25,6 @@ __all__ = [
     "first_per_key",
     "live_at",
     "sorted_contains",
-    "split_keys",
 ]
 
 #: Largest key range (N * N, i.e. N = 3 000 robots) for which dense per-pair arrays are used
@@ -246,19 +245,6 @@ def live_at(keys: np.ndarray, base: int, expiry: np.ndarray, clock: np.ndarray) 
     return out
 
 
-def split_keys(keys: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(keys // n**2, keys // n % n, keys % n)`` of non-negative keys ``(a n + b) n + c``
-    with a, b, c < n, as int32 (node indices: half the memory of a dense swarm's 2-hop
-    triples, 27 M at 300 UAVs within range).
-
-    One integer division per run of keys with the same ``(a, b)``: a division per link of a
-    sorted 2-hop table rather than per tuple (any order gives the same arrays)."""
-    keys = np.ascontiguousarray(keys, dtype=np.int64)
-    out = np.empty((3, keys.size), dtype=np.int32)
-    _split_keys(keys, np.int64(n), out[0], out[1], out[2])
-    return out[0], out[1], out[2]
-
-
 @njit(cache=True, nogil=True)
 def _live_at(keys, base, expiry, clock, out):
     lo, hi = np.int64(1), np.int64(0)
@@ -271,23 +257,3 @@ def _live_at(keys, base, expiry, clock, out):
             hi = lo + base
             c = clock[o]
         out[i] = expiry[i] > c
-
-
-@njit(cache=True, nogil=True)
-def _split_keys(keys, n, high, mid, low):
-    nn = n * n
-    a0, a1, b0, b1 = np.int64(1), np.int64(0), np.int64(1), np.int64(0)
-    a = b = np.int64(0)
-    for i in range(keys.size):
-        k = keys[i]
-        if k < b0 or k >= b1:
-            if k < a0 or k >= a1:
-                a = k // nn
-                a0 = a * nn
-                a1 = a0 + nn
-            b = (k - a0) // n
-            b0 = a0 + b * n
-            b1 = b0 + n
-        high[i] = a
-        mid[i] = b
-        low[i] = k - b0

@@ -53,7 +53,7 @@ def strict_two_hop(
     owner, neigh, two_hop : ndarray of int32
         ``(r, j, x)`` of every valid tuple with ``j`` a symmetric neighbour of ``r``,
         ``x != r`` and ``x`` not a symmetric neighbour of ``r``, in the table's order: the
-        triples of ``split_keys`` filtered by those three conditions.
+        triples ``(key // N², key // N % N, key % N)`` filtered by those three conditions.
 
     Examples
     --------
