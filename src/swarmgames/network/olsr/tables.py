@@ -118,7 +118,10 @@ class KeyedTable:
             self.cols[name] = np.concatenate([col, add])[order]
 
     def keep(self, mask: np.ndarray) -> None:
-        """Keep only the tuples where ``mask`` is true."""
+        """Keep only the tuples where ``mask`` is true (nothing is copied when it keeps them
+        all: a dense swarm's 2-hop table holds tens of millions)."""
+        if mask.all():
+            return
         self.keys = self.keys[mask]
         for name in self.cols:
             self.cols[name] = self.cols[name][mask]
