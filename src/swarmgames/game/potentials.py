@@ -127,7 +127,8 @@ class PairSource(Protocol):
     every game holds every robot). ``rank`` (B, K) int ranks every game's variables
     canonically (a permutation of ``0 .. K-1``, the valid variables first);
     ``ranked_table(games)`` returns ``W[games]`` with the variables in rank order,
-    ``T[g, rank[b, k], a, rank[b, l], c] = W[b, k, a, l, c]`` for ``b = games[g]``; ``head``
+    ``T[g, rank[b, k], a, rank[b, l], c] = W[b, k, a, l, c]`` for ``b = games[g]`` (the
+    engines only read it, so it may be a view of a table the source holds); ``head``
     (B,) int names for every game one whose ranked table equals its own bit for bit
     (``head[head[b]] == head[b]``). The compiled mean-field engine then computes the heads'
     ranked tables only and sums every game's pair fields in rank order
