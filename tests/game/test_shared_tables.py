@@ -171,6 +171,66 @@ def test_on_demand_batches_are_bounded_by_the_measured_rows_not_the_tables():
     assert sorted(np.concatenate(lazy).tolist()) == list(range(300))
 
 
+def test_batches_of_games_sharing_a_held_table_are_bounded_by_their_tables():
+    """``size_groups(shared=...)``: a batch holds one table per label and every game's rows
+    at a profile; each batch stays within the budget however the labels fall."""
+    from swarmgames.game.stage import MAX_PAIR_ELEMS
+
+    sizes = np.full(300, 300)
+    table, rows = 300**2 * 81, 300**2 * 9
+    one = size_groups(sizes, 0, 9, shared=np.zeros(300, np.int64))
+    # Two buckets of 150 games, each in batches of at most 21: one table and 21 rows.
+    assert (MAX_PAIR_ELEMS - table) // rows == 21
+    assert len(one) == 2 * 8 and max(g.size for g in one) <= 21
+    assert sorted(np.concatenate(one).tolist()) == list(range(300))
+    rng = np.random.default_rng(0)
+    for labels in (rng.integers(0, 2, 300), rng.integers(0, 5, 300), np.arange(300)):
+        for g in size_groups(sizes, 0, 9, shared=labels):
+            assert min(np.unique(labels[g]).size, g.size) * table + g.size * rows <= max(
+                MAX_PAIR_ELEMS, table + rows
+            )
+    # A robot with a table of its own (-1) keeps its bucket (robots 0-149) on the tables'
+    # budget; the other bucket shares.
+    mixed = np.zeros(300, np.int64)
+    mixed[7] = -1
+    batches = size_groups(sizes, 0, 9, shared=mixed)
+    assert max(g.size for g in batches if g.max() < 150) == 3
+    assert max(g.size for g in batches if g.min() >= 150) == 19
+
+
+def test_sharing_labels_name_equal_neighbourhoods_of_large_games():
+    from swarmgames.game.local import broadcast
+    from swarmgames.game.stage import sharing_labels
+    from swarmgames.network import TopologySnapshot
+
+    # Robots 0-3 all within one hop of each other; 4-5 a pair; 6 alone.
+    hop = np.full((7, 7), -1)
+    hop[:4, :4] = 1
+    hop[4:6, 4:6] = 1
+    np.fill_diagonal(hop, 0)
+    msgs = broadcast(TopologySnapshot.from_hop_matrix(0.0, hop), 1, np.zeros((7, 3)))
+    labels = sharing_labels(msgs, 9, 18)  # games of at least 2 robots x 9 actions
+    assert len(set(labels[:4].tolist())) == 1 and len(set(labels[4:6].tolist())) == 1
+    assert labels[0] != labels[4] and labels[6] == -1
+    assert np.all(sharing_labels(msgs, 9, 10**6) == -1)
+
+
+def test_which_solvers_solve_equal_held_games_on_one_table():
+    from swarmgames.config import parse_config
+    from swarmgames.game.stage import held_sharing
+    from swarmgames.missions.coverage.held import HELD_SHARE_MIN
+    from swarmgames.missions.coverage.mission import build
+
+    pot = build(parse_config({"swarm": {"n_robots": 4}})).potentials
+    assert held_sharing(make_solver("mean_field", dtype="float64", engine="compiled"), pot) == (
+        HELD_SHARE_MIN
+    )
+    assert held_sharing(make_solver("mean_field", dtype="float32", engine="compiled"), pot) is None
+    assert held_sharing(make_solver("mean_field", dtype="float64", engine="blas"), pot) is None
+    assert held_sharing(make_solver("best_response", dtype="float64"), pot) is None
+    assert held_sharing(make_solver("mean_field", dtype="float64"), object()) is None
+
+
 def test_which_solvers_compute_the_coverage_tables_on_demand():
     from swarmgames.config import parse_config
     from swarmgames.missions.coverage.mission import build
@@ -193,6 +253,19 @@ def test_the_memory_estimate_follows_the_on_demand_batches():
     parts = dict(lazy.parts)
     assert parts["pairwise tables of one batch"] == 8 * 2700**2 * 4
     assert lazy.total_gib < 2.0
+
+
+def test_the_memory_estimate_follows_the_batches_of_equal_held_games():
+    """Games that may share a held table are batched 21 at a time at K = 300 (one table):
+    the estimate counts that batch, its table and weighted copy and the rows of 21 games,
+    when it is the larger; small games keep the batches of distinct games."""
+    distinct = stage_memory(300, 300, 9)
+    equal = stage_memory(300, 300, 9, held_sharing=1024)
+    assert (distinct.batch_games, equal.batch_games) == (3, 21)
+    assert dict(equal.parts)["pairwise tables of one batch"] == 2 * 2700**2 * 8
+    assert equal.total_gib < 0.5
+    small = stage_memory(300, 10, 9, held_sharing=1024)  # 90 entries: below the threshold
+    assert small.batch_games == stage_memory(300, 10, 9).batch_games
 
 
 def test_refinement_on_shared_ranked_tables_ends_at_a_pure_ne_whatever_the_batch():

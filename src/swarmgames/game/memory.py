@@ -34,6 +34,10 @@ GIB = float(2**30)
 #: evaluation's validity masks (five int64/float64 arrays, one float64 and one bool mask).
 _GATHER_BYTES = 57.0
 
+#: Bytes per ``B K² A`` entry of the measurement of games that share one held table: the rows
+#: at a profile, gathered by one compiled pass (float64), and numpy's sum over them.
+_HELD_ROW_BYTES = 16.0
+
 
 @dataclass(frozen=True)
 class MemoryEstimate:
@@ -98,6 +102,7 @@ def stage_memory(
     pair_work_bytes: float = 0.0,
     max_pair_elems: int | None = None,
     pair_on_demand: bool = False,
+    held_sharing: int | None = None,
 ) -> MemoryEstimate:
     """Predicted peak memory of one stage of ``n_robots`` local games.
 
@@ -125,6 +130,12 @@ def stage_memory(
     pair_on_demand : bool, default False
         The solver computes the pairwise tables per chunk of games
         (:func:`~swarmgames.game.stage.pair_on_demand`).
+    held_sharing : int, optional
+        The smallest game (K A entries) whose equal copies in a batch share one held table
+        (:func:`~swarmgames.game.stage.held_sharing`): games this large may be batched by
+        their tables (:func:`~swarmgames.game.stage.size_groups`), so the estimate is the
+        larger of a batch of distinct games and one of equal games (one table, its weighted
+        copy and the rows of every game at a profile).
 
     Returns
     -------
@@ -149,6 +160,13 @@ def stage_memory(
         table = entries * itemsize
         # The measurement's gathers (int64 indices, values, masks) run beside the table.
         gathers = entries / a * _GATHER_BYTES
+        if held_sharing is not None and k * a >= held_sharing:
+            from swarmgames.game.stage import _sharing_games
+
+            equal = min(n, _sharing_games(1, k * k, a, budget))
+            rows = equal * held / a * _HELD_ROW_BYTES
+            if 2 * per_game * itemsize + rows > table + gathers:
+                games, table, gathers = equal, 2 * per_game * itemsize, rows
     # The unary integral runs before the pairwise table exists; the pairwise blocks and the
     # measurement's gathers each run beside it.
     work = max(float(unary_bytes) - table, float(pair_work_bytes), gathers)

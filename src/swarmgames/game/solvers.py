@@ -333,6 +333,19 @@ class MeanFieldSolver(_Base):
             return False
         return resolve_engine(self.engine) == "compiled" and bool(fn(np.dtype(self.dtype)))
 
+    def held_sharing(self, potentials: Potentials) -> int | None:
+        """The smallest game (valid variables × actions) from which the equal games of a
+        batch share one held pairwise table of ``potentials`` (their optional
+        ``held_sharing_min(dtype)``), solved once per group by the compiled engine; None
+        otherwise (another engine builds every game's table). The stage then budgets a
+        batch of such games by its tables, not by its games
+        (:func:`~swarmgames.game.stage.size_groups`)."""
+        fn = getattr(potentials, "held_sharing_min", None)
+        if not callable(fn) or self.alpha_b <= 0 or resolve_engine(self.engine) != "compiled":
+            return None
+        least = fn(np.dtype(self.dtype))
+        return None if least is None else int(least)
+
     def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
         """Mean-field marginals of every game, then each owner's action."""
         t0 = time.perf_counter()

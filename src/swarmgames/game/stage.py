@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from swarmgames.arrays import freeze_fields
+from swarmgames.arrays import freeze_fields, sorted_unique
 from swarmgames.game.actions import ActionModel
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.colocated import separate_colocated
@@ -175,6 +175,7 @@ def size_groups(
     max_elems: int = MAX_PAIR_ELEMS,
     *,
     on_demand: bool = False,
+    shared: np.ndarray | None = None,
 ) -> list[np.ndarray]:
     """Robots split into batches of similar neighbourhood size |N_i|.
 
@@ -184,6 +185,13 @@ def size_groups(
     memory of a stage stays bounded however large the swarm. With ``on_demand`` (the solver
     computes the tables per chunk of games, :func:`pair_on_demand`) a batch holds no table,
     only the measurements' rows of it at a profile, ``count × K_max² × A`` entries.
+
+    ``shared`` (N,) int, optional: a label per robot whose equal labels mark games that hold
+    one pairwise table between them (:func:`held_sharing`; -1: a table of its own). A group
+    whose games all have labels, ``d`` distinct ones, holds at most ``min(d, count)`` tables
+    and the rows of every game at a profile: it is split into batches of the most games
+    ``c`` with ``min(d, c) K_max² A² + c K_max² A <= max_elems`` (a dense swarm's batches
+    then hold 21 games of K = 300 instead of 3).
 
     Returns
     -------
@@ -202,9 +210,56 @@ def size_groups(
     for g in np.array_split(order, min(int(buckets), max(n, 1))):
         if not g.size:
             continue
-        per = max(1, int(max_elems // max(1, int(sizes[g[-1]]) ** 2 * per_var)))
+        k2 = int(sizes[g[-1]]) ** 2
+        per = max(1, int(max_elems // max(1, k2 * per_var)))
+        if shared is not None and not on_demand and np.all(shared[g] >= 0):
+            per = max(per, _sharing_games(sorted_unique(shared[g]).size, k2, n_actions, max_elems))
         out.extend(np.array_split(g, -(-g.size // per)))
     return out
+
+
+def _sharing_games(d: int, k2: int, n_actions: int, max_elems: int) -> int:
+    """The most games ``c`` of a batch with ``min(d, c)`` tables of ``k2 A²`` entries and
+    ``c`` rows of ``k2 A`` within ``max_elems``."""
+    table, rows = k2 * n_actions**2, k2 * n_actions
+    if d * table + d * rows <= max_elems:  # more games than tables
+        return max(d, int((max_elems - d * table) // rows))
+    return int(max_elems // (table + rows))
+
+
+def held_sharing(solver, potentials) -> int | None:
+    """The smallest game (valid variables × actions) from which ``solver`` solves the equal
+    games of a batch on one pairwise table that ``potentials`` hold for them (the solver's
+    optional ``held_sharing(potentials)``), or None."""
+    fn = getattr(solver, "held_sharing", None)
+    return fn(potentials) if callable(fn) else None
+
+
+def sharing_labels(messages: Messages, n_actions: int, min_entries: int) -> np.ndarray:
+    """A label per robot, equal for robots whose local games (from exact ``messages``) hold
+    the same robots, and -1 for games of fewer than ``min_entries`` valid entries: the
+    ``shared`` of :func:`size_groups`. Each neighbourhood is labelled by its size and a
+    64-bit hash of its sorted members (a collision only merges two labels in the budget)."""
+    sizes = messages.sizes.astype(np.int64)
+    n = sizes.size
+    big = sizes * n_actions >= min_entries
+    if not big.any():
+        return np.full(n, -1, dtype=np.int64)
+    members = np.asarray(messages.indices, dtype=np.uint64)
+    pos = np.arange(members.size, dtype=np.uint64) - np.repeat(
+        np.asarray(messages.indptr[:-1], dtype=np.uint64), sizes
+    )
+    with np.errstate(over="ignore"):
+        mixed = (members + np.uint64(1)) * np.uint64(0x9E3779B97F4A7C15) ^ (
+            pos * np.uint64(0xC2B2AE3D27D4EB4F)
+        )
+        mixed *= np.uint64(0xFF51AFD7ED558CCD)
+    h = np.zeros(n, dtype=np.uint64)
+    nz = sizes > 0
+    h[nz] = np.bitwise_xor.reduceat(mixed, np.asarray(messages.indptr[:-1])[nz])
+    key = h ^ (sizes.astype(np.uint64) << np.uint64(48))
+    _, label = np.unique(key, return_inverse=True)
+    return np.where(big, label.reshape(-1), -1)
 
 
 def pair_on_demand(solver, potentials) -> bool:
@@ -461,7 +516,9 @@ def solve_stage(
         sizes = sizes + source.context_sizes
     on_demand = pair_on_demand(solver, potentials)
     n_act = int(action_model.n_actions)
-    groups = size_groups(sizes, _check_buckets(buckets), n_act, on_demand=on_demand)
+    share_min = None if inbox is not None or mode == "exact" else held_sharing(solver, potentials)
+    shared = None if share_min is None else sharing_labels(messages, n_act, share_min)
+    groups = size_groups(sizes, _check_buckets(buckets), n_act, on_demand=on_demand, shared=shared)
     build_s = time.perf_counter() - t0
     rec = _Record(n, n_act)
     integrate_s = solve_s = refine_s = 0.0

@@ -214,6 +214,15 @@ def _pairs_on_demand(config, mission) -> bool:
     return pot is not None and pair_on_demand(solver_from_config(config.game), pot)
 
 
+def _held_sharing(config, mission) -> int | None:
+    """From which game size the run's solver shares one held table among equal games."""
+    from swarmgames.game.stage import held_sharing
+    from swarmgames.sim.controllers import solver_from_config
+
+    pot = getattr(mission, "potentials", None)
+    return None if pot is None else held_sharing(solver_from_config(config.game), pot)
+
+
 def estimate_memory(config, mission=None, *, whole_run: bool = True) -> MemoryEstimate:
     """Predicted peak memory of a run of ``config``.
 
@@ -245,6 +254,7 @@ def estimate_memory(config, mission=None, *, whole_run: bool = True) -> MemoryEs
         "state_dim": d,
         "itemsize": itemsize,
         "pair_on_demand": not centralised and _pairs_on_demand(config, mission),
+        "held_sharing": None if centralised else _held_sharing(config, mission),
     }
     first = stage_memory(n, k, a, **kwargs)
     unary, pair_work = _potentials_bytes(mission, first.n_vars, a, first.batch_games, n)

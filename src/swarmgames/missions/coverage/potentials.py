@@ -549,6 +549,14 @@ class CoveragePotentials:
         the compiled kernel)."""
         return np.dtype(dtype) == np.float32 and self._compiled
 
+    def held_sharing_min(self, dtype) -> int | None:
+        """The valid entries from which a batch's equal games share one held table of
+        ``dtype`` (:meth:`_held_pairs`, float64: :data:`~swarmgames.missions.coverage.held.
+        HELD_SHARE_MIN`); None for float32, whose tables are computed on demand."""
+        from swarmgames.missions.coverage.held import HELD_SHARE_MIN
+
+        return HELD_SHARE_MIN if np.dtype(dtype) == np.float64 else None
+
     def pair_source(self, batch, weights, dtype=np.float64):
         """The engine's weighted table :math:`w_b \\times` :meth:`pair_table` (``weights``:
         each game's pairwise weight :math:`w_b`, shape (B,), or one α_b for all), on
