@@ -215,6 +215,48 @@ def test_sharing_labels_name_equal_neighbourhoods_of_large_games():
     assert np.all(sharing_labels(msgs, 9, 10**6) == -1)
 
 
+def _dense_default_stage(monkeypatch, share: bool):
+    """One stage of the default scenario (float64) with 40 UAVs within range, its games
+    shared from 100 entries and batches of at most 1 M table entries (old rule: 7 games)."""
+    import swarmgames.game.stage as stage
+    from swarmgames.bench.stage import StageBench
+    from swarmgames.config import resolve_scenario
+    from swarmgames.missions.coverage import held
+
+    monkeypatch.setattr(held, "HELD_SHARE_MIN", 100)
+    monkeypatch.setattr(stage, "MAX_PAIR_ELEMS", 1_000_000)
+    plain = stage.size_groups
+    seen = []
+
+    def sized(*args, **kwargs):
+        out = plain(*args[:3], 1_000_000, **kwargs)
+        seen.append(max(g.size for g in out))
+        return out
+
+    monkeypatch.setattr(stage, "size_groups", sized)
+    if not share:
+        monkeypatch.setattr(stage, "held_sharing", lambda *_: None)
+    cfg = resolve_scenario("coverage", ["swarm.n_robots=40", "swarm.start_max_neighbours=0"])
+    sb = StageBench(40, config=cfg, seed=3)
+    sb.controller.global_regret = True
+    sb.step()
+    return sb.controller.decide(sb.snapshot, sb.states, np.random.default_rng(0)), seen
+
+
+def test_equal_held_games_batched_by_their_table_give_the_same_stage(monkeypatch):
+    """Batching the equal games of a dense swarm by their one table changes no result: the
+    actions, payoffs, local, global and ex-post regrets of a stage are those of the batches
+    of distinct games, bit for bit (the ex-post games, never equal, keep those batches)."""
+    with monkeypatch.context() as m:
+        shared, seen_shared = _dense_default_stage(m, True)
+    with monkeypatch.context() as m:
+        plain, seen_plain = _dense_default_stage(m, False)
+    assert max(seen_plain) == 7 and max(seen_shared) == 40  # one batch of 40 equal games
+    for name in ("actions", "payoff", "local_regret", "global_regret", "expost_regret"):
+        assert np.array_equal(getattr(shared, name), getattr(plain, name)), name
+    assert np.all(np.isfinite(shared.global_regret)) and np.all(np.isfinite(shared.expost_regret))
+
+
 def test_which_solvers_solve_equal_held_games_on_one_table():
     from swarmgames.config import parse_config
     from swarmgames.game.stage import held_sharing

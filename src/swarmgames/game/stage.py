@@ -563,7 +563,9 @@ def solve_stage(
     if global_regret:
         _global_regret(rec, solver, messages, batches, action_model, potentials)
         true_groups = groups
-        if inbox is not None:  # the true neighbourhoods may be sized otherwise
+        if inbox is not None or shared is not None:
+            # The true neighbourhoods may be sized otherwise, and the ex-post games (each
+            # owner deviating alone) are never equal: a table each.
             true_groups = size_groups(messages.sizes, int(buckets), n_act, on_demand=on_demand)
         expost_s = _expost(rec, solver, messages, true_groups, nxt, action_model, potentials)
     extra = {}
@@ -597,11 +599,18 @@ def _global_regret(rec: _Record, solver, messages, batches, action_model, potent
         batch = owner_deviations(batch, rec.actions)
         return global_regret(_owner_rows(solver, batch, potentials), rec.actions)
 
+    n_act = int(action_model.n_actions)
     for owners, redo, rows in batches:
         if rows is not None:
             rec.global_regret[owners[~redo]] = global_regret(rows, rec.actions)
         if redo.any():
-            rec.global_regret[owners[redo]] = again(owners[redo])
+            # Each rebuilt game (its owner deviating alone) has a table of its own, so a
+            # batch of games that shared one is rebuilt within the tables' budget.
+            todo = owners[redo]
+            k2 = int(messages.sizes[todo].max()) ** 2
+            per = max(1, MAX_PAIR_ELEMS // max(1, k2 * n_act**2))
+            for part in np.array_split(todo, -(-todo.size // per)):
+                rec.global_regret[part] = again(part)
 
 
 def _knows_the_truth(batch: LocalGameBatch, truth) -> np.ndarray:
