@@ -132,10 +132,11 @@ def stage_memory(
         (:func:`~swarmgames.game.stage.pair_on_demand`).
     held_sharing : int, optional
         The smallest game (K A entries) whose equal copies in a batch share one held table
-        (:func:`~swarmgames.game.stage.held_sharing`): games this large may be batched by
-        their tables (:func:`~swarmgames.game.stage.size_groups`), so the estimate is the
-        larger of a batch of distinct games and one of equal games (one table, its weighted
-        copy and the rows of every game at a profile).
+        (:func:`~swarmgames.game.stage.held_sharing`). When every game holds every robot
+        (K = N) and is this large, its games are equal and batched by their one table
+        (:func:`~swarmgames.game.stage.size_groups`), so the estimate is the larger of a
+        batch of distinct games and one of equal games (one table, its weighted copy and
+        the rows of every game at a profile).
 
     Returns
     -------
@@ -160,12 +161,12 @@ def stage_memory(
         table = entries * itemsize
         # The measurement's gathers (int64 indices, values, masks) run beside the table.
         gathers = entries / a * _GATHER_BYTES
-        if held_sharing is not None and k * a >= held_sharing:
+        if held_sharing is not None and k >= n and k * a >= held_sharing:
             from swarmgames.game.stage import _sharing_games
 
             equal = min(n, _sharing_games(1, k * k, a, budget))
             rows = equal * held / a * _HELD_ROW_BYTES
-            if 2 * per_game * itemsize + rows > table + gathers:
+            if equal > games and 2 * per_game * itemsize + rows > table + gathers:
                 games, table, gathers = equal, 2 * per_game * itemsize, rows
     # The unary integral runs before the pairwise table exists; the pairwise blocks and the
     # measurement's gathers each run beside it.

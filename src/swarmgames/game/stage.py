@@ -224,7 +224,7 @@ def _sharing_games(d: int, k2: int, n_actions: int, max_elems: int) -> int:
     table, rows = k2 * n_actions**2, k2 * n_actions
     if d * table + d * rows <= max_elems:  # more games than tables
         return max(d, int((max_elems - d * table) // rows))
-    return int(max_elems // (table + rows))
+    return max(1, int(max_elems // (table + rows)))
 
 
 def held_sharing(solver, potentials) -> int | None:
