@@ -607,10 +607,8 @@ def _global_regret(rec: _Record, solver, messages, batches, action_model, potent
             # Each rebuilt game (its owner deviating alone) has a table of its own, so a
             # batch of games that shared one is rebuilt within the tables' budget.
             todo = owners[redo]
-            k2 = int(messages.sizes[todo].max()) ** 2
-            per = max(1, MAX_PAIR_ELEMS // max(1, k2 * n_act**2))
-            for part in np.array_split(todo, -(-todo.size // per)):
-                rec.global_regret[part] = again(part)
+            for part in size_groups(messages.sizes[todo], 1, n_act):
+                rec.global_regret[todo[part]] = again(todo[part])
 
 
 def _knows_the_truth(batch: LocalGameBatch, truth) -> np.ndarray:
