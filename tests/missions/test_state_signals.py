@@ -79,6 +79,27 @@ def test_beliefs_that_differ_under_one_id_are_kept_apart():
         assert np.array_equal(got, want)
 
 
+def test_a_state_used_again_keeps_its_row_over_one_used_once():
+    # Three rows of one value each. The clock hand passes over a row used since it last came
+    # by (its state was found again) and takes the first row that was not.
+    signals = StateSignals(3)
+    signals.prepare(("window",), 1, 1, 1, 10, 1)
+
+    def assign(*ids):
+        keys = np.asarray(ids, dtype=float)[:, None]
+        rows, miss = signals.assign(np.asarray(ids), keys)
+        return rows.tolist(), miss.tolist()
+
+    assert assign(0, 1, 2) == ([0, 1, 2], [True, True, True])
+    assert assign(0) == ([0], [False])  # found again
+    assert assign(3) == ([1], [True])  # 1, used once, goes; 0 stays
+    assert assign(0, 2, 3) == ([0, 2, 1], [False, False, False])
+    # Every row was used since the hand last passed: it clears them and takes the next one
+    # that the current chunk does not hold.
+    assert assign(1, 0) == ([2, 0], [True, False])
+    assert (signals.computed, signals.found) == (5, 5)
+
+
 @pytest.mark.parametrize("bad", [0, -3, 2.5, True])
 def test_state_signals_reject_a_bad_bound(bad):
     with pytest.raises(ValueError, match="max_elems"):

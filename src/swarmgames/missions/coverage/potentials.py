@@ -176,8 +176,9 @@ class CoveragePotentials:
         (:func:`~swarmgames.missions.coverage.window.windowed_unary`). The two agree to
         float32 rounding; each is bit-identical from run to run and on any number of threads.
         Without a signal floor the whole-grid integral is numpy's either way.
-    signal_table_elems : int, default 32_000_000
-        Upper bound on the float32 values (128 MiB) of the table of states' action signals
+    signal_table_elems : int, default 96_000_000
+        Upper bound on the float32 values (384 MiB; two states per id below that: 60 MiB at
+        1 000 UAVs) of the table of states' action signals
         that the compiled windowed kernel keeps across batches
         (:class:`~swarmgames.missions.coverage.signals.StateSignals`): a state is computed
         once a stage while it stays there. The results do not depend on it.
@@ -214,7 +215,7 @@ class CoveragePotentials:
     separation_mode: str = "pairwise"
     alpha_b: float = 0.001
     kernel: str = "auto"
-    signal_table_elems: int = 32_000_000
+    signal_table_elems: int = 96_000_000
     last_integrate_s: float = field(default=0.0, init=False)
     _raster: RoiRaster | None = field(default=None, init=False, repr=False)
     _last_fields: tuple | None = field(default=None, init=False, repr=False)

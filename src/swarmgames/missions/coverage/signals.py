@@ -11,8 +11,11 @@ An entry is found by the state's id (``2 * member + is_virtual``) and used only 
 values are equal to the state's, bit for bit: its state, next states and valid actions, for
 the same window geometry. A state is always computed by the same code from those values, so
 the results are the same whether its entry was computed in this call or an earlier one.
-Entries are replaced in the order of a clock hand, never one that the current chunk of games
-uses; the table holds at most ``max_elems`` float32 values.
+Entries are replaced by a clock hand with a second chance: the hand never takes a row that the
+current chunk of games uses, and passes over (and clears) a row whose state was found again
+since the hand last came by, so the states that several batches share outlive those a stage
+used once (the old states of robots that moved). The table holds at most ``max_elems``
+float32 values.
 """
 
 from __future__ import annotations
@@ -26,12 +29,13 @@ __all__ = ["StateSignals"]
 
 
 @njit(cache=True, nogil=True)
-def _assign(def_ids, def_keys, index, ids, keys, stamp, now, hand):
+def _assign(def_ids, def_keys, index, ids, keys, stamp, used, now, hand):
     """The table row of every defining state of a chunk, and whether it must be computed.
 
-    A state whose id's row holds equal keys is found there; any other takes the row under
-    the clock hand that no state of this chunk (``stamp == now``) uses, which is then the
-    row of its id. Returns ``(rows, miss, hand)``."""
+    A state whose id's row holds equal keys is found there; any other takes the first row
+    from the clock hand on that no state of this chunk uses (``stamp == now``) and that was
+    not used since the hand last passed it (``used``: the hand clears it and moves on), which
+    is then the row of its id. Returns ``(rows, miss, hand)``."""
     n, m = def_keys.shape
     cap = ids.size
     rows = np.empty(n, np.int64)
@@ -48,8 +52,10 @@ def _assign(def_ids, def_keys, index, ids, keys, stamp, now, hand):
             if same:
                 rows[i] = r
                 stamp[r] = now
+                used[r] = True
                 continue
-        while stamp[hand] == now:
+        while stamp[hand] == now or used[hand]:
+            used[hand] = False
             hand = (hand + 1) % cap
         r = hand
         hand = (hand + 1) % cap
@@ -71,8 +77,8 @@ class StateSignals:
 
     Parameters
     ----------
-    max_elems : int, default 32_000_000
-        Upper bound on the table's float32 values (128 MiB); the table holds at least one
+    max_elems : int, default 96_000_000
+        Upper bound on the table's float32 values (384 MiB); the table holds at least one
         chunk's states whatever the bound.
 
     Attributes
@@ -84,7 +90,7 @@ class StateSignals:
         (what the table saved).
     """
 
-    max_elems: int = 32_000_000
+    max_elems: int = 96_000_000
     table: np.ndarray = field(default=None, init=False, repr=False)
     computed: int = field(default=0, init=False)
     found: int = field(default=0, init=False)
@@ -92,6 +98,7 @@ class StateSignals:
     _ids: np.ndarray = field(default=None, init=False, repr=False)
     _keys: np.ndarray = field(default=None, init=False, repr=False)
     _stamp: np.ndarray = field(default=None, init=False, repr=False)
+    _used: np.ndarray = field(default=None, init=False, repr=False)
     _index: np.ndarray = field(default=None, init=False, repr=False)
     _now: int = field(default=0, init=False, repr=False)
     _hand: int = field(default=0, init=False, repr=False)
@@ -124,6 +131,7 @@ class StateSignals:
             self._ids = np.full(cap, -1, dtype=np.int64)
             self._keys = np.empty((cap, key_width), dtype=np.float64)
             self._stamp = np.full(cap, -1, dtype=np.int64)
+            self._used = np.zeros(cap, dtype=np.bool_)
             self._index = np.full(0, -1, dtype=np.int64)
             self._hand = 0
         if self._index.size < ids_needed:
@@ -142,6 +150,7 @@ class StateSignals:
             self._ids,
             self._keys,
             self._stamp,
+            self._used,
             self._now,
             self._hand,
         )
