@@ -4,6 +4,7 @@ and 10): a HELLO round's new tuples, and the strict 2-hop neighbourhood."""
 import numpy as np
 import pytest
 
+from swarmgames.network.olsr import twohop
 from swarmgames.network.olsr.routing import compute_routes
 from swarmgames.network.olsr.twohop import round_tuples, strict_two_hop
 
@@ -66,10 +67,13 @@ def _strict_reference(keys, expiry, clock, sym_keys, n):
     return owner[ok], neigh[ok], x[ok]
 
 
+@pytest.mark.parametrize("buffer", [1, twohop.STRICT_BUFFER])
 @pytest.mark.parametrize("seed", range(8))
-def test_strict_two_hop_is_the_rfc_filter(seed):
+def test_strict_two_hop_is_the_rfc_filter(seed, buffer, monkeypatch):
     """RFC 3626 8.3.1 and 10: valid tuples whose relay is a symmetric neighbour and whose
-    target is neither the owner nor a symmetric neighbour, in the table's order."""
+    target is neither the owner nor a symmetric neighbour, in the table's order (in one
+    pass, or in two when the first one's buffer is too small)."""
+    monkeypatch.setattr(twohop, "STRICT_BUFFER", buffer)
     rng = np.random.default_rng(seed)
     n = int(rng.integers(1, 30))
     keys = np.unique(rng.integers(0, n**3, int(rng.integers(0, 4 * n**2 + 1))))

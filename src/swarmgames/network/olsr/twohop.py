@@ -73,17 +73,28 @@ def strict_two_hop(
         np.ascontiguousarray(sym_keys, dtype=np.int64),
         np.int64(n),
     )
-    out = np.empty((3, _strict(*args, np.empty((3, 0), np.int32))), dtype=np.int32)
-    _strict(*args, out)
-    return out[0], out[1], out[2]
+    # One pass when the strict tuples fit a buffer of a few MB (none in a clique; about one
+    # per tuple at constant density), a second one of the counted size otherwise.
+    out = np.empty((3, min(keys.size, STRICT_BUFFER)), dtype=np.int32)
+    m = _strict(*args, out)
+    if m > out.shape[1]:
+        out = np.empty((3, m), dtype=np.int32)
+        _strict(*args, out)
+    return out[0, :m], out[1, :m], out[2, :m]
+
+
+STRICT_BUFFER = 1 << 20
+"""Strict tuples that :func:`strict_two_hop` writes in its first pass (12 MiB); a table that
+holds more is walked again into an array of the counted size."""
 
 
 @njit(cache=True, nogil=True)
 def _strict(keys, expiry, clock, sym, n, out):
-    """The strict tuples into ``out`` (3, M) when it has room for them, else counted only;
-    returns M. The sorted keys come in runs of one owner, and within it of one relay: a
-    division per run, and the owner's neighbours flagged once per owner."""
-    write = out.shape[1] > 0
+    """The strict tuples into ``out`` (3, C) as far as it has room, all of them counted;
+    returns their number M (``out[:, :M]`` holds them all when M <= C). The sorted keys come
+    in runs of one owner, and within it of one relay: a division per run, and the owner's
+    neighbours flagged once per owner."""
+    room = out.shape[1]
     nn = n * n
     flags = np.zeros(n, np.bool_)
     p = 0  # the first link of the current owner in sym
@@ -121,7 +132,7 @@ def _strict(keys, expiry, clock, sym, n, out):
         x = k - b0
         if x == a or flags[x] or not expiry[i] > c:  # the expiry last: rarely read in a clique
             continue
-        if write:
+        if m < room:
             out[0, m] = a
             out[1, m] = b
             out[2, m] = x
