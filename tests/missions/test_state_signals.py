@@ -46,11 +46,16 @@ def test_kept_signals_follow_a_new_window_and_owner_rows():
     positions = rng.uniform(-200.0, 200.0, (30, 2))
     arrays, ids = _batch(rng, np.arange(30), positions)
     signals = StateSignals()
+    tables = []
     for floor, tau in ((-100.0, 1.0), (-95.0, 1.0), (-100.0, 0.0), (-100.0, 1.0)):
         args = (RASTER, SIGNAL, floor, *arrays)
         want = compiled_windowed_unary(*args, softness_db=tau, state_ids=ids)
         got = compiled_windowed_unary(*args, softness_db=tau, state_ids=ids, signals=signals)
         assert np.array_equal(got, want)
+        tables.append(signals.table)
+    # Each new window emptied the table and reused its memory (no new table to fill).
+    assert len({t.shape for t in tables}) > 1
+    assert all(np.shares_memory(tables[0], t) for t in tables[1:])
     owners = np.zeros(arrays[0].shape, dtype=bool)
     owners[:, 0] = True
     args = (RASTER, SIGNAL, -100.0, *arrays)

@@ -92,6 +92,7 @@ class StateSignals:
 
     max_elems: int = 96_000_000
     table: np.ndarray = field(default=None, init=False, repr=False)
+    _buffer: np.ndarray = field(default=None, init=False, repr=False)
     computed: int = field(default=0, init=False)
     found: int = field(default=0, init=False)
     _geometry: tuple | None = field(default=None, init=False, repr=False)
@@ -122,12 +123,17 @@ class StateSignals:
         chunk's states) and ids below ``ids_needed``."""
         cap = max(int(rows), self.capacity(n_actions, n_cells, ids_needed))
         shape = (cap, n_actions, n_cells)
+        size = cap * n_actions * n_cells
         if geometry != self._geometry or self.table is None or self.table.shape[0] < rows:
             self._geometry = geometry
-            # Touched once here, not page by page as the clock hand first reaches each row
-            # (a fresh page costs about 10 µs on a virtual machine): the first call pays it.
-            self.table = np.empty(shape, dtype=np.float32)
-            self.table.fill(0.0)
+            if self._buffer is None or self._buffer.size < size:
+                # Touched once here, not page by page as the clock hand first reaches each
+                # row (a fresh page costs about 10 µs on a virtual machine): the first call
+                # pays it. A new geometry reuses the buffer: games decided one at a time
+                # whose windows differ would otherwise each fill a table of up to 4 N rows.
+                self._buffer = np.empty(size, dtype=np.float32)
+                self._buffer.fill(0.0)
+            self.table = self._buffer[:size].reshape(shape)
             self._ids = np.full(cap, -1, dtype=np.int64)
             self._keys = np.empty((cap, key_width), dtype=np.float64)
             self._stamp = np.full(cap, -1, dtype=np.int64)
