@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from swarmgames.errors import BackendUnavailableError
 from swarmgames.game import evaluate_payoffs, mean_field
 from swarmgames.game.meanfield import compiled_available
-from swarmgames.game.meanfield_compiled import PARALLEL_MIN_GAMES
+from swarmgames.game.meanfield_compiled import PARALLEL_MIN_GAMES, POOL_LOCK, pool
 from swarmgames.game.potentials import GamePayoffs
 from swarmgames.game.solvers import MeanFieldSolver
 from tests.game.helpers import curie_weiss, random_games
@@ -135,6 +135,21 @@ def test_results_do_not_depend_on_the_number_of_threads():
     finally:
         numba.set_num_threads(before)
     _same(one, many)
+
+
+def test_pool_runs_small_work_on_the_calling_thread_and_restores_the_count():
+    before = numba.get_num_threads()
+    with pool(False):
+        assert numba.get_num_threads() == 1 and POOL_LOCK.locked()
+    with pool(True, 1):
+        assert numba.get_num_threads() == 1
+    with pool():
+        assert numba.get_num_threads() == before
+    with pool(True, 10**6):  # at most the threads Numba started with
+        assert numba.get_num_threads() == numba.config.NUMBA_NUM_THREADS
+    with pytest.raises(RuntimeError), pool(False):
+        raise RuntimeError
+    assert numba.get_num_threads() == before and not POOL_LOCK.locked()
 
 
 def test_concurrent_calls_from_python_threads_are_safe_and_equal():

@@ -14,7 +14,9 @@ from hypothesis import strategies as st
 
 from swarmgames.config import scaled_config
 from swarmgames.missions import CoveragePotentials, GaussianROI, HeadingActions, SignalModel
+from swarmgames.missions.coverage import kernel
 from swarmgames.missions.coverage.kernel import (
+    PARALLEL_MIN_ROWS,
     compiled_windowed_unary,
     exp_f32,
     log1p_f32,
@@ -111,6 +113,18 @@ def test_compiled_is_bit_identical_on_any_thread_count():
         for w in (1, 2, 1)
     ]
     assert np.array_equal(runs[0], runs[1]) and np.array_equal(runs[0], runs[2])
+
+
+def test_a_few_games_on_the_calling_thread_give_the_pools_bits(monkeypatch):
+    # Fewer variables than PARALLEL_MIN_ROWS (a UAV deciding alone) run on the calling
+    # thread; forced onto the pool, the same games give the same values.
+    mask, amask, states, nxt = _games(np.random.default_rng(6), 3, 8, 300.0)
+    assert mask.sum() < PARALLEL_MIN_ROWS
+    args = (RASTER, SIGNAL, -100.0, mask, amask, states, nxt)
+    serial = compiled_windowed_unary(*args, softness_db=1.0, workers=2)
+    monkeypatch.setattr(kernel, "PARALLEL_MIN_ROWS", 0)
+    pooled = compiled_windowed_unary(*args, softness_db=1.0, workers=2)
+    assert np.array_equal(serial, pooled) and np.abs(serial).max() > 0
 
 
 @pytest.mark.parametrize("fn", [compiled_windowed_unary, windowed_unary])

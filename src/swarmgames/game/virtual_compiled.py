@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from swarmgames.game.meanfield_compiled import POOL_LOCK
+from swarmgames.game.meanfield_compiled import PARALLEL_MIN_GAMES, pool
 
 __all__ = ["compiled_member_columns"]
 
@@ -49,6 +49,6 @@ def compiled_member_columns(members: np.ndarray, mask: np.ndarray, nbh: np.ndarr
     mask = np.ascontiguousarray(mask, dtype=np.bool_)
     span = int(max(members.max(initial=0), nbh.max(initial=0))) + 1
     out = np.empty(nbh.shape, dtype=np.int64)
-    with POOL_LOCK:
+    with pool(members.shape[0] >= PARALLEL_MIN_GAMES):
         _member_columns(members, mask, nbh, span, out)
     return out

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
-from swarmgames.game.meanfield_compiled import POOL_LOCK
+from swarmgames.game.meanfield_compiled import in_parallel, pool
 
 __all__ = ["HELD_SHARE_MIN", "HeldPairs"]
 
@@ -76,7 +76,7 @@ class HeldPairs:
         group, var, x = (
             np.ascontiguousarray(v, dtype=np.int64) for v in (self.group, self.var, profile)
         )
-        with POOL_LOCK:
+        with pool(in_parallel(b, k * k * self.tables.shape[2])):
             _held_at(self.tables, group, var, np.ascontiguousarray(self.mask), x, out)
         return out
 

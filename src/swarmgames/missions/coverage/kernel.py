@@ -48,13 +48,12 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from functools import cached_property
 
-import numba
 import numpy as np
 from llvmlite import ir
 from numba import njit, prange, types
 from numba.extending import intrinsic
 
-from swarmgames.game.meanfield_compiled import POOL_LOCK
+from swarmgames.game.meanfield_compiled import PARALLEL_MIN_GAMES, in_parallel, pool
 from swarmgames.missions.coverage.distinct import DistinctGames, distinct_games
 from swarmgames.missions.coverage.signal import SignalModel
 from swarmgames.missions.coverage.signals import StateSignals
@@ -72,6 +71,11 @@ _f32 = np.float32
 
 #: Ids at or above this (or negative) are not kept across calls (:class:`StateSignals`).
 _MAX_KEPT_ID = 1 << 26
+
+PARALLEL_MIN_ROWS = 16 * PARALLEL_MIN_GAMES
+"""Variables (of all the games of a call) from which the unary runs on the thread pool;
+fewer (a few games, one UAV deciding alone) run on the calling thread
+(:func:`~swarmgames.game.meanfield_compiled.pool`)."""
 
 
 @intrinsic
@@ -480,28 +484,23 @@ def compiled_windowed_unary(
         # One table for every chunk: fresh pages would be faulted in and zeroed by the
         # system at every chunk.
         buf = np.empty((most, A, n_cells), dtype=np.float32)
-    with POOL_LOCK:
-        before = numba.get_num_threads()
-        numba.set_num_threads(max(1, min(int(workers), numba.config.NUMBA_NUM_THREADS)))
-        try:
-            for c in range(row_start.size - 1):
-                lo, hi = row_start[c], row_start[c + 1]
-                part = slice(src_start[c], src_start[c + 1])
-                defs = src[part]
-                if keep:
-                    at, todo = signals.assign(def_ids[part], keys[part])
-                    defs = defs[todo]
-                    dest = at[todo]
-                else:
-                    at = dest = np.arange(defs.size)
-                if defs.size:
-                    _state_table(rb[defs], rk[defs], dest, amask, nxt, ctr, *geom, jy, jx,
-                                 *consts, buf)  # fmt: skip
-                _gain_rows(rb[lo:hi], rk[lo:hi], at[local[lo:hi]], mask, amask, states, ctr,
-                           raster.weights, *geom, in_raster, in_square,
-                           float(win.pair_reach) ** 2, *consts, win.tau, buf, out)  # fmt: skip
-        finally:
-            numba.set_num_threads(before)
+    with pool(rb.size >= PARALLEL_MIN_ROWS, int(workers)):
+        for c in range(row_start.size - 1):
+            lo, hi = row_start[c], row_start[c + 1]
+            part = slice(src_start[c], src_start[c + 1])
+            defs = src[part]
+            if keep:
+                at, todo = signals.assign(def_ids[part], keys[part])
+                defs = defs[todo]
+                dest = at[todo]
+            else:
+                at = dest = np.arange(defs.size)
+            if defs.size:
+                _state_table(rb[defs], rk[defs], dest, amask, nxt, ctr, *geom, jy, jx,
+                             *consts, buf)  # fmt: skip
+            _gain_rows(rb[lo:hi], rk[lo:hi], at[local[lo:hi]], mask, amask, states, ctr,
+                       raster.weights, *geom, in_raster, in_square,
+                       float(win.pair_reach) ** 2, *consts, win.tau, buf, out)  # fmt: skip
     return out
 
 
@@ -683,7 +682,7 @@ class CoveragePairs:
         games = np.ascontiguousarray(games, dtype=np.int64)
         _, k, a = self.valid.shape
         out = np.empty((games.size, k, a, k, a), dtype=np.float32)
-        with POOL_LOCK:
+        with pool(in_parallel(games.size, (k * a) ** 2)):
             _pair_tables(games, self.points, self.valid, *self._consts(), out)
         return out
 
@@ -692,7 +691,7 @@ class CoveragePairs:
         b, k, a = self.valid.shape
         out = np.empty((b, k, k * a), dtype=np.float32)
         prof = np.ascontiguousarray(profile, dtype=np.int64)
-        with POOL_LOCK:
+        with pool(in_parallel(b, k * k * a)):
             _pair_at(prof, self.points, self.valid, *self._consts(), out)
         return out.reshape(b, k, k, a).transpose(0, 2, 3, 1)
 
@@ -704,7 +703,7 @@ class CoveragePairs:
         sums = np.empty((b, k, a), dtype=np.float32)
         at_kl = np.empty((b, k, k), dtype=np.float32)
         prof = np.ascontiguousarray(profile, dtype=np.int64)
-        with POOL_LOCK:
+        with pool(in_parallel(b, k * k * a)):
             _pair_sums(prof, self.points, self.valid, *self._consts(), sums, at_kl)
         return sums, at_kl
 
@@ -757,7 +756,7 @@ class CoveragePairs:
         _, k, a = valid.shape
         out = np.empty((games.size, k, a, k, a), dtype=np.float32)
         consts = (*self._consts()[:-1], np.ascontiguousarray(self.weight[games]))
-        with POOL_LOCK:
+        with pool(in_parallel(games.size, (k * a) ** 2)):
             _pair_tables(np.arange(games.size), points, valid, *consts, out)
         return out
 
