@@ -48,6 +48,27 @@ def test_isolated_and_single_robot():
     assert iso.hop_matrix().tolist() == [[0, -1, -1], [-1, 0, -1], [-1, -1, 0]]
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_neighbourhood_rows_are_each_robots_sorted_table_row_and_itself(seed):
+    # N_i(h) from the definition: i and every destination of i's table within h hops,
+    # sorted; robots with no entries (isolated) hold themselves alone.
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 40))
+    hops = rng.integers(1, 5, (n, n)).astype(float)
+    hops[rng.random((n, n)) < 0.6] = np.inf
+    hops[rng.integers(0, n, 3)] = np.inf  # some isolated rows
+    snap = TopologySnapshot.from_hop_matrix(0.0, hops)
+    for h in (1, 2, 3):
+        indptr, indices = snap.neighbourhood_rows(h)
+        assert indptr.dtype == np.int64 and indices.dtype == np.int32
+        for i in range(n):
+            want = sorted({i, *np.flatnonzero(hops[i] <= h).tolist()})
+            assert indices[indptr[i] : indptr[i + 1]].tolist() == want
+        m = snap.neighbourhood_matrix(h)
+        assert m.toarray().tolist() == [[j in set(indices[indptr[i] : indptr[i + 1]]) for j
+                                         in range(n)] for i in range(n)]  # fmt: skip
+
+
 def test_networkx_export():
     g = _line3().to_networkx(h=2)
     assert g.number_of_nodes() == 3 and g.number_of_edges() == 6
@@ -62,6 +83,8 @@ def test_shape_mismatch_is_an_error():
 def test_bad_h():
     with pytest.raises(ValueError, match="h must be >= 1"):
         _line3().neighbourhood_matrix(0)
+    with pytest.raises(ValueError, match="h must be >= 1"):
+        _line3().neighbourhood_rows(0)
 
 
 @pytest.mark.parametrize(

@@ -99,18 +99,42 @@ class TopologySnapshot:
         np.fill_diagonal(m, 0)
         return m
 
-    def neighbourhood_matrix(self, h: int) -> sp.csr_array:
-        """Boolean CSR matrix ``A`` with ``A[i, j]`` true iff ``j`` is in ``N_i(h)``.
+    def neighbourhood_rows(self, h: int) -> tuple[np.ndarray, np.ndarray]:
+        """Every ``N_i(h)`` as CSR rows: ``indptr`` (N + 1,) int64 and ``indices`` int32,
+        row i sorted and holding ``i`` itself (paper, section II.A).
 
-        ``N_i(h)`` always contains ``i`` itself (paper, section II.A).
+        The entries are sorted by ``(owner, dest)`` and unique, so each robot's own key
+        ``i (N + 1)`` is inserted at its place in the sorted keys ``owner N + dest``: no
+        sort and no sparse-matrix conversion.
+
+        Examples
+        --------
+        >>> snap = TopologySnapshot.from_hop_matrix(0.0, np.array([[0, 1, 2], [1, 0, 1],
+        ...                                                         [2, 1, 0]]))
+        >>> indptr, indices = snap.neighbourhood_rows(1)
+        >>> indptr.tolist(), indices.tolist()
+        ([0, 2, 5, 7], [0, 1, 0, 1, 2, 1, 2])
         """
         if h < 1:
             raise ValueError(f"h must be >= 1 (got {h})")
+        n = int(self.n_robots)
         keep = self.hops <= h
-        rows = np.concatenate([self.owner[keep], np.arange(self.n_robots, dtype=np.int32)])
-        cols = np.concatenate([self.dest[keep], np.arange(self.n_robots, dtype=np.int32)])
-        data = np.ones(rows.size, dtype=bool)
-        return sp.csr_array((data, (rows, cols)), shape=(self.n_robots, self.n_robots))
+        keys = self.owner[keep].astype(np.int64) * n + self.dest[keep]
+        own = np.arange(n, dtype=np.int64) * (n + 1)
+        keys = np.insert(keys, np.searchsorted(keys, own), own)
+        indptr = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(np.bincount(keys // max(n, 1), minlength=n), out=indptr[1:])
+        return indptr, (keys % max(n, 1)).astype(np.int32)
+
+    def neighbourhood_matrix(self, h: int) -> sp.csr_array:
+        """Boolean CSR matrix ``A`` with ``A[i, j]`` true iff ``j`` is in ``N_i(h)``
+        (:meth:`neighbourhood_rows`, sorted indices).
+
+        ``N_i(h)`` always contains ``i`` itself (paper, section II.A).
+        """
+        indptr, indices = self.neighbourhood_rows(h)
+        data = np.ones(indices.size, dtype=bool)
+        return sp.csr_array((data, indices, indptr), shape=(self.n_robots, self.n_robots))
 
     def neighbourhood(self, i: int, h: int) -> np.ndarray:
         """Sorted indices of ``N_i(h)``, ``i`` included."""

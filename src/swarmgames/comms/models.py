@@ -109,9 +109,8 @@ class CommsStats:
 
 def _table_rows(snapshot: TopologySnapshot, h: int):
     """Each robot's N_i(h) from its own table as CSR (sorted, the robot included)."""
-    nbh = snapshot.neighbourhood_matrix(int(h))
-    nbh.sort_indices()
-    return np.asarray(nbh.indptr, dtype=np.int64), np.asarray(nbh.indices, dtype=np.int64)
+    indptr, indices = snapshot.neighbourhood_rows(int(h))
+    return indptr, indices.astype(np.int64)
 
 
 def table_links(snapshot: TopologySnapshot) -> sp.csr_array:
