@@ -13,9 +13,12 @@ first reception is the number of hops the message travelled, and the latency is
 that many times the per-hop latency (a configured delay plus the frame's airtime,
 :mod:`swarmgames.comms.wire`).
 
-Everything is vectorised over all the messages of a stage at once: one hop expands every
-(message, holder) pair of the frontier into its transmissions along the CSR rows of the
-adjacency.
+All the messages of a stage travel at once: one hop expands every (message, holder) pair of
+the frontier into its transmissions along the CSR rows of the adjacency, keeps those that
+could bring a message to a robot that does not have it yet, draws them (``link_success``)
+and merges the first receptions into the sorted set of (message, robot) pairs reached.
+The expansion and the merge are compiled passes (:func:`_fresh`, :func:`_reach`): a hop of
+a 100-UAV swarm was about twenty numpy calls, each costing more than its arithmetic.
 """
 
 from __future__ import annotations
@@ -25,8 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 
-from swarmgames.arrays import csr_gather, freeze_fields, sorted_unique
+from swarmgames.arrays import freeze_fields
 
 __all__ = ["Delivery", "flood"]
 
@@ -61,11 +65,66 @@ class Delivery:
         freeze_fields(self)
 
 
-def _isin_sorted(keys: np.ndarray, sorted_set: np.ndarray) -> np.ndarray:
-    if sorted_set.size == 0:
-        return np.zeros(keys.shape, dtype=bool)
-    pos = np.minimum(np.searchsorted(sorted_set, keys), sorted_set.size - 1)
-    return sorted_set[pos] == keys
+@njit(cache=True, nogil=True)
+def _fresh(indptr, indices, msg, node, reached, n):
+    """The transmissions of one hop that could bring a message to a robot without it: for
+    every frontier pair ``(msg[p], node[p])`` in order (sorted by message) and every
+    neighbour ``v`` of the holder in adjacency order, ``(msg N + v, node[p], v)`` unless
+    ``msg N + v`` is in the sorted ``reached``. The robots that hold a message are flagged
+    in an array of N entries while its pairs are expanded."""
+    total = 0
+    for p in range(node.size):
+        total += indptr[node[p] + 1] - indptr[node[p]]
+    keys = np.empty(total, np.int64)
+    tx_u = np.empty(total, np.int64)
+    tx_v = np.empty(total, np.int64)
+    has = np.zeros(n, np.bool_)
+    lo = hi = 0  # the run of the current message in reached
+    current = -1
+    m = 0
+    for p in range(node.size):
+        if msg[p] != current:
+            for r in range(lo, hi):
+                has[reached[r] - current * n] = False
+            current = msg[p]
+            lo = np.searchsorted(reached, current * n)
+            hi = np.searchsorted(reached, (current + 1) * n)
+            for r in range(lo, hi):
+                has[reached[r] - current * n] = True
+        u = node[p]
+        base = current * n
+        for e in range(indptr[u], indptr[u + 1]):
+            v = indices[e]
+            if has[v]:
+                continue
+            keys[m] = base + v
+            tx_u[m] = u
+            tx_v[m] = v
+            m += 1
+    return keys[:m], tx_u[:m], tx_v[:m]
+
+
+@njit(cache=True, nogil=True)
+def _reach(keys, reached):
+    """The distinct ``keys`` (new, none in ``reached``) sorted, and ``reached`` with them
+    merged in (both sorted)."""
+    new = np.sort(keys)
+    m = 0
+    for i in range(new.size):
+        if i == 0 or new[i] != new[i - 1]:
+            new[m] = new[i]
+            m += 1
+    new = new[:m]
+    out = np.empty(reached.size + m, np.int64)
+    i = j = 0
+    for p in range(out.size):
+        if j < m and (i >= reached.size or new[j] < reached[i]):
+            out[p] = new[j]
+            j += 1
+        else:
+            out[p] = reached[i]
+            i += 1
+    return new, out
 
 
 def flood(
@@ -123,23 +182,17 @@ def flood(
     got: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     for depth in range(1, int(ttl) + 1):
         if depth > 1:  # robots that first heard a message one hop ago relay it once
-            np.add.at(forwarded, node, 1)
-            np.add.at(bytes_forwarded, node, sizes[msg])
-        entry, which = csr_gather(indptr, node)
-        tx_msg, tx_u, tx_v = msg[which], node[which], indices[entry]
-        keys = tx_msg * n + tx_v
-        fresh = ~_isin_sorted(keys, reached)
-        keys, tx_u, tx_v = keys[fresh], tx_u[fresh], tx_v[fresh]
+            forwarded += np.bincount(node, minlength=n)
+            bytes_forwarded += np.bincount(node, weights=sizes[msg], minlength=n).astype(np.int64)
+        keys, tx_u, tx_v = _fresh(indptr, indices, msg, node, reached, np.int64(n))
         if link_success is not None and keys.size:
             ok = np.asarray(link_success(tx_u, tx_v), dtype=bool)
             keys = keys[ok]
-        keys = sorted_unique(keys)
+        keys, reached = _reach(keys, reached)
         if keys.size == 0:
             break
         msg, node = np.divmod(keys, n)
         got.append((node, msg, np.full(keys.size, depth, dtype=np.int64)))
-        # ``keys`` are sorted, unique and new: merged in, the same array as np.union1d.
-        reached = np.insert(reached, np.searchsorted(reached, keys), keys)
     if got:
         receiver, sender, hops = (np.concatenate(parts) for parts in zip(*got, strict=True))
         order = np.argsort(receiver * n + sender)  # unique pairs: lexsort's order
