@@ -74,3 +74,18 @@ def test_bad_roi_rejected(kwargs, match):
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
         GaussianROI(**args)
+
+
+def test_expectation_sums_in_cell_order_whatever_the_cpu():
+    # The same IEEE operations as a Python loop in cell order (no BLAS kernel choice, no
+    # reassociation), for one row and for a stack of rows.
+    roi = GaussianROI((0.0, 0.0), ((200.0**2, 0.0), (0.0, 120.0**2)), 0.95, 20.0)
+    v = np.random.default_rng(3).normal(-90.0, 6.0, (3, roi.n_cells))
+    want = []
+    for row in v:
+        s = 0.0
+        for a, w in zip(row.tolist(), roi.weights.tolist(), strict=True):
+            s += a * w
+        want.append(s / roi.mass)
+    assert roi.expectation(v).tolist() == want
+    assert roi.expectation(v[0]) == want[0] and np.ndim(roi.expectation(v[0])) == 0

@@ -7,6 +7,11 @@ nothing they compute, the other missions' cases when they were added, ``coverage
 (the coverage preset with its best-response refinement) when the refinement was added.
 ``trajectory.csv`` must stay byte-identical; the other two tables must hold the same values
 in the columns recorded then (columns added since, such as ``oscillation``, are checked elsewhere).
+The ``coverage`` column of ``swarm.csv`` alone was rewritten since, when the coverage metric's
+weighted sum over the ROI became a loop in cell order: as a BLAS dot product it had differed
+by a few units in the last place between two CPUs (OpenBLAS selects its kernel by CPU), with
+every trajectory byte-identical on both; the rewrite checked that each value moved by at most
+1e-12 relative and that the trajectories stayed the same.
 
 They were recorded with every neighbour's exact state delivered instantly, which is what
 ``comms.model = "ideal"`` keeps reproducing bit for bit. With routed messages (the default)

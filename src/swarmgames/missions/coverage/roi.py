@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 from swarmgames.arrays import frozen
 
@@ -201,5 +202,26 @@ class GaussianROI:
 
     def expectation(self, values: np.ndarray) -> np.ndarray:
         """:math:`E[f(r) \\mid r \\in \\mathcal{R}] = \\sum_g w_g f_g / \\sum_g w_g` over the
-        last axis of ``values`` (shape (..., G))."""
-        return np.asarray(values, dtype=np.float64) @ self.weights / self.mass
+        last axis of ``values`` (shape (..., G)).
+
+        The sum runs in cell order (:func:`_weighted_sums`), so the coverage metric is the
+        same on every CPU: a BLAS dot product accumulates in the order of the kernel that
+        the CPU selects, and two machines' coverage columns differed in the last bits."""
+        v = np.asarray(values, dtype=np.float64)
+        flat = np.ascontiguousarray(v.reshape(-1, v.shape[-1]))
+        sums = _weighted_sums(flat, np.ascontiguousarray(self.weights, dtype=np.float64))
+        out = (sums / self.mass).reshape(v.shape[:-1])
+        return out[()] if out.ndim == 0 else out
+
+
+@njit(cache=True, nogil=True)
+def _weighted_sums(values, weights):
+    """``values @ weights`` for rows of ``values`` (R, G), each summed in index order with
+    IEEE arithmetic (no reassociation): the same bits on any CPU."""
+    out = np.empty(values.shape[0])
+    for r in range(values.shape[0]):
+        s = 0.0
+        for g in range(weights.size):
+            s += values[r, g] * weights[g]
+        out[r] = s
+    return out
