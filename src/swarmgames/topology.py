@@ -123,8 +123,8 @@ class TopologySnapshot:
         own = np.arange(n, dtype=np.int64) * (n + 1)
         keys = np.insert(keys, np.searchsorted(keys, own), own)
         indptr = np.zeros(n + 1, dtype=np.int64)
-        np.cumsum(np.bincount(keys // max(n, 1), minlength=n), out=indptr[1:])
-        return indptr, (keys % max(n, 1)).astype(np.int32)
+        np.cumsum(np.bincount(keys // n, minlength=n), out=indptr[1:])
+        return indptr, (keys % n).astype(np.int32)
 
     def neighbourhood_matrix(self, h: int) -> sp.csr_array:
         """Boolean CSR matrix ``A`` with ``A[i, j]`` true iff ``j`` is in ``N_i(h)``

@@ -17,8 +17,8 @@ All the messages of a stage travel at once: one hop expands every (message, hold
 the frontier into its transmissions along the CSR rows of the adjacency, keeps those that
 could bring a message to a robot that does not have it yet, draws them (``link_success``)
 and merges the first receptions into the sorted set of (message, robot) pairs reached.
-The expansion and the merge are compiled passes (:func:`_fresh`, :func:`_reach`): a hop of
-a 100-UAV swarm was about twenty numpy calls, each costing more than its arithmetic.
+The expansion is one compiled pass (:func:`_fresh`): as numpy steps, a hop of a 100-UAV
+swarm was about twenty calls, each costing more than its arithmetic.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
-from swarmgames.arrays import freeze_fields
+from swarmgames.arrays import freeze_fields, sorted_unique
 
 __all__ = ["Delivery", "flood"]
 
@@ -104,29 +104,6 @@ def _fresh(indptr, indices, msg, node, reached, n):
     return keys[:m], tx_u[:m], tx_v[:m]
 
 
-@njit(cache=True, nogil=True)
-def _reach(keys, reached):
-    """The distinct ``keys`` (new, none in ``reached``) sorted, and ``reached`` with them
-    merged in (both sorted)."""
-    new = np.sort(keys)
-    m = 0
-    for i in range(new.size):
-        if i == 0 or new[i] != new[i - 1]:
-            new[m] = new[i]
-            m += 1
-    new = new[:m]
-    out = np.empty(reached.size + m, np.int64)
-    i = j = 0
-    for p in range(out.size):
-        if j < m and (i >= reached.size or new[j] < reached[i]):
-            out[p] = new[j]
-            j += 1
-        else:
-            out[p] = reached[i]
-            i += 1
-    return new, out
-
-
 def flood(
     adjacency: sp.csr_array,
     ttl: int,
@@ -188,11 +165,13 @@ def flood(
         if link_success is not None and keys.size:
             ok = np.asarray(link_success(tx_u, tx_v), dtype=bool)
             keys = keys[ok]
-        keys, reached = _reach(keys, reached)
+        keys = sorted_unique(keys)
         if keys.size == 0:
             break
         msg, node = np.divmod(keys, n)
         got.append((node, msg, np.full(keys.size, depth, dtype=np.int64)))
+        # ``keys`` are sorted, unique and new: merged in, the same array as np.union1d.
+        reached = np.insert(reached, np.searchsorted(reached, keys), keys)
     if got:
         receiver, sender, hops = (np.concatenate(parts) for parts in zip(*got, strict=True))
         order = np.argsort(receiver * n + sender)  # unique pairs: lexsort's order
