@@ -8,6 +8,7 @@ configuration error (bad option, invalid scenario file, unknown name, existing o
 from __future__ import annotations
 
 import sys
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
@@ -22,6 +23,7 @@ from swarmgames.errors import (
     RunFolderError,
     SwarmgamesError,
 )
+from swarmgames.names import COMMS_MODELS
 from swarmgames.network.factory import BACKENDS
 
 __all__ = ["cli", "main"]
@@ -906,8 +908,86 @@ def missions_check(name: str, overrides: tuple[str, ...], robots: int) -> None:
     click.echo(f"mission {name!r} conforms")
 
 
+@cli.group()
+def comms() -> None:
+    """Characterise the communication layer on a position trace."""
+
+
+@comms.command(name="replay")
+@positions_option
+@click.option(
+    "--backend",
+    type=click.Choice(BACKENDS),
+    default="olsr",
+    show_default=True,
+    help="Network whose routing tables carry the messages (ns3: run number = seed + 1).",
+)
+@click.option(
+    "--comms",
+    "model",
+    type=click.Choice([m for m in COMMS_MODELS if m != "ideal"]),
+    default=None,
+    help="Communication model (default: the default scenario's, csma; ideal delivers "
+    "everything at once).",
+)
+@click.option("--hops", type=click.IntRange(min=1, max=16), default=2, show_default=True,
+              help="h: the neighbourhood radius and the flood's TTL.")  # fmt: skip
+@click.option("--seed", type=click.IntRange(min=0, max=2**31 - 2), default=0, show_default=True)
+@out_option
+@force_option
+@set_option
+@click.option("--no-progress", is_flag=True, help="Do not show a progress bar.")
+@_guarded
+def comms_replay(
+    positions: Path,
+    backend: str,
+    model: str | None,
+    hops: int,
+    seed: int,
+    out: Path | None,
+    force: bool,
+    overrides: tuple[str, ...],
+    no_progress: bool,
+) -> None:
+    """Deliver every robot's state message each second of a trace from t = 20 s and measure
+    what arrives by the decision (comms.decide_after_s), by hop distance.
+
+    Writes delivery.csv (hops,pairs,delivered,ratio,mean_age_ms), stages.csv (bytes per
+    robot and the busiest robot's channel load per stage) and delivery.png. Radio, OLSR and
+    comms parameters come from the default scenario, changed with --set.
+    """
+    from swarmgames.config import resolve_scenario
+    from swarmgames.experiments.comms_replay import replay_comms
+    from swarmgames.network.trace import read_positions
+
+    extra = () if model is None else (f"comms.model={model!r}",)
+    cfg = resolve_scenario(None, (*overrides, *extra))
+    trace = read_positions(positions)  # validate before creating the folder
+    folder = _open_run_folder(out, f"comms-replay-{positions.stem}", force)
+    with _progress(f"comms replay ({cfg.comms.model})", not no_progress and _interactive()) as tick:
+        res = replay_comms(trace, backend=backend, config=cfg, hops=hops, seed=seed, progress=tick)
+    res.write(folder)
+    d = res.delivery
+    by_hop = ", ".join(
+        f"{int(r.hops)} hop{'s' if r.hops > 1 else ''} {100 * r.ratio:.1f} % "
+        f"({r.mean_age_ms:.1f} ms)"
+        for r in d.itertuples()
+    )
+    click.echo(
+        f"{res.comms} on {backend}: {trace.n_robots} robots, {len(res.stages)} stages; "
+        f"delivered by the decision (age on arrival): {by_hop or 'no pairs'}; "
+        f"max channel load {res.stages['channel_load'].max():.2f} -> {folder.path}/"
+    )
+
+
 def main(argv: list[str] | None = None) -> None:
     """Console-script entry point. The process keeps freed memory for reuse
     (:func:`swarmgames.allocator.reuse_freed_memory`) unless ``SWARMGAMES_MALLOC=system``."""
     reuse_freed_memory()
+    warnings.showwarning = _one_line_warning
     cli.main(args=argv, prog_name="swarmgames")
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning is one line on standard error, never a source excerpt."""
+    click.echo(f"warning: {message}", err=True)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 __all__ = [
     "BackendUnavailableError",
+    "ChannelOverloadWarning",
     "ConfigError",
     "InputDataError",
     "OutputWriteError",
@@ -53,3 +54,8 @@ class OutputWriteError(SwarmgamesError, OSError):
 
 class BackendUnavailableError(SwarmgamesError, ImportError):
     """An optional backend (for example ns-3) is not installed; the message says how to get it."""
+
+
+class ChannelOverloadWarning(UserWarning):
+    """The messages of a stage need more airtime than the decision window holds: some cannot
+    arrive by the decision, whatever the channel access (docs/comms.md, "Channel load")."""

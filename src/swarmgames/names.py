@@ -42,7 +42,7 @@ PAIR_WEIGHTINGS = ("sum", "mean")
 ENGINES = ("auto", "compiled", "blas", "sequential")
 
 #: Communication models (``comms.model``).
-COMMS_MODELS = ("ideal", "routed", "ns3")
+COMMS_MODELS = ("ideal", "routed", "csma", "ns3")
 
 #: How a local game stands in for the members' neighbours outside it (``game.virtual_mean``):
 #: ``eq3`` the paper's virtual mean over N_j, ``outside`` the mean over N_j − N_i only,

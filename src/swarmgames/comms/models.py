@@ -54,7 +54,8 @@ import scipy.sparse as sp
 from swarmgames.arrays import freeze_fields, sorted_unique
 from swarmgames.comms.beliefs import BeliefInbox, BeliefTable
 from swarmgames.comms.flooding import flood
-from swarmgames.comms.wire import airtime_s, message_bytes
+from swarmgames.comms.load import offered_load
+from swarmgames.comms.wire import FRAME_OVERHEAD_BYTES, PREAMBLE_S, airtime_s, message_bytes
 from swarmgames.game.local import broadcast, pad_rows
 from swarmgames.names import COMMS_MODELS
 from swarmgames.network.links import link_graph
@@ -88,6 +89,11 @@ class CommsStats:
     messages_sent, messages_forwarded, messages_received : ndarray of int64
     bytes_sent, bytes_forwarded, bytes_received : ndarray of int64
         State-message payload bytes (:mod:`swarmgames.comms.wire`).
+    channel_load : ndarray of float64
+        Airtime that the robot and the robots it hears transmitted in the stage, over
+        ``decide_after_s`` (:func:`~swarmgames.comms.load.offered_load`; above 1 the
+        stage's traffic cannot fit the decision window). NaN under ``ideal``, which has no
+        channel.
     """
 
     info_age_s: np.ndarray
@@ -98,6 +104,7 @@ class CommsStats:
     bytes_sent: np.ndarray
     bytes_forwarded: np.ndarray
     bytes_received: np.ndarray
+    channel_load: np.ndarray
 
     def __post_init__(self) -> None:
         freeze_fields(self)
@@ -179,6 +186,7 @@ class IdealComms:
             bytes_sent=sizes.astype(np.int64),
             bytes_forwarded=np.zeros(n, dtype=np.int64),
             bytes_received=rx_bytes,
+            channel_load=np.full(n, np.nan),
         )
         return None, stats
 
@@ -569,5 +577,16 @@ class RoutedComms(BeliefComms):
             "bytes_sent": delivery.bytes_sent,
             "bytes_forwarded": delivery.bytes_forwarded,
             "bytes_received": delivery.bytes_received,
+            "channel_load": self._load(adjacency, delivery),
         }
         return new, counters
+
+    def _load(self, adjacency: sp.csr_array, delivery) -> np.ndarray:
+        """Each robot's offered load (:func:`~swarmgames.comms.load.offered_load`) over the
+        links the messages travel: every frame a sent or relayed message at ``rate_mbps``."""
+        frames = delivery.sent + delivery.forwarded
+        payload = delivery.bytes_sent + delivery.bytes_forwarded
+        bits = 8.0 * (payload + frames * FRAME_OVERHEAD_BYTES)
+        air = frames * PREAMBLE_S + bits / (self.rate_mbps * 1e6)
+        coo = sp.coo_array(adjacency)
+        return offered_load(coo.row, coo.col, air, self.decide_after_s)

@@ -45,8 +45,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from swarmgames.comms.beliefs import BeliefTable
+from swarmgames.comms.load import offered_load
 from swarmgames.comms.models import BeliefComms, table_links
-from swarmgames.comms.wire import decode_messages, encode_messages
+from swarmgames.comms.wire import decode_messages, encode_messages, ofdm_airtime_s
 from swarmgames.network.ns3_backend import Ns3Provider
 from swarmgames.network.ns3_packets import PacketReceptions, PacketTransmissions, StateFlood
 
@@ -161,5 +162,11 @@ class Ns3Comms(BeliefComms):
             "bytes_sent": per_robot(tx.node[own], tx.size[own]),
             "bytes_forwarded": per_robot(tx.node[~own], tx.size[~own]),
             "bytes_received": per_robot(rx.receiver, rx.size),
+            "channel_load": offered_load(
+                links.tocoo().row,
+                links.tocoo().col,
+                np.bincount(tx.node, weights=ofdm_airtime_s(tx.size), minlength=n),
+                self.decide_after_s,
+            ),
         }
         return new, counters

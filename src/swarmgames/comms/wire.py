@@ -50,6 +50,7 @@ __all__ = [
     "decode_messages",
     "encode_messages",
     "message_bytes",
+    "ofdm_airtime_s",
 ]
 
 #: Fixed part of the payload: sender, timestamp, D and |N_j|.
@@ -90,6 +91,34 @@ def airtime_s(payload_bytes, rate_mbps: float) -> np.ndarray:
     """
     bits = 8.0 * (np.asarray(payload_bytes, dtype=float) + FRAME_OVERHEAD_BYTES)
     return PREAMBLE_S + bits / (float(rate_mbps) * 1e6)
+
+
+def ofdm_airtime_s(
+    payload_bytes, rate_mbps: float = 6.0, overhead_bytes: int = FRAME_OVERHEAD_BYTES
+):
+    """Airtime of one 802.11a OFDM frame as ns-3 transmits it, seconds.
+
+    The preamble and SIGNAL field (20 µs), then the 16 SERVICE bits, the frame and the 6
+    tail bits in whole OFDM symbols of 4 µs, each carrying ``4 rate_mbps`` data bits (IEEE
+    802.11-2016 17.4.3; ns-3's ``OfdmPhy::GetPayloadDuration``).
+
+    Parameters
+    ----------
+    payload_bytes : array_like of int
+        UDP payload of each frame, bytes.
+    rate_mbps : float
+        PHY rate, one of 802.11a's (6 to 54 Mbit/s).
+    overhead_bytes : int
+        Headers around the payload (default: UDP/IPv4, MAC, LLC/SNAP and FCS).
+
+    Examples
+    --------
+    >>> round(float(ofdm_airtime_s(91)) * 1e6, 1)  # ns-3: 232 µs for a 91-byte message
+    232.0
+    """
+    bits = 16 + 8 * (np.asarray(payload_bytes, dtype=np.int64) + int(overhead_bytes)) + 6
+    per_symbol = 4.0 * float(rate_mbps)
+    return PREAMBLE_S + 4e-6 * np.ceil(bits / per_symbol)
 
 
 @dataclass(frozen=True, eq=False)

@@ -185,13 +185,14 @@ class CommsConfig(_Section):
     """How state messages reach the robots (the communication layer, docs/comms.md)."""
 
     model: Literal[COMMS_MODELS] = Field(
-        "routed",
+        "csma",
         description=(
-            "'routed' (default): messages flooded hop by hop over the links that exist now, "
-            "with delay and loss, into belief tables; 'ideal': every member of N_i(h) gets "
-            "the exact state instantly and for free (the paper's assumption); 'ns3': the same "
-            "flooding as UDP packets in ns-3 (needs network.backend = 'ns3'), which decides "
-            "delivery, delay and loss."
+            "'csma' (default): messages flooded hop by hop over one shared 802.11a channel "
+            "(jitter, carrier sense, backoff, airtime; a frame is lost when other frames "
+            "drown it), into belief tables; 'routed': the same flooding with a fixed delay "
+            "per hop and configured loss, but infinite capacity; 'ideal': every member of "
+            "N_i(h) gets the exact state instantly and for free (the paper's assumption); "
+            "'ns3': the same flooding as UDP packets in ns-3 (needs network.backend = 'ns3')."
         ),
     )
     jitter_s: float = Field(
@@ -199,8 +200,9 @@ class CommsConfig(_Section):
         ge=0,
         le=1.0,
         description=(
-            "'ns3' model: every transmission (a message or a relay) first waits a uniform "
-            "random time in [0, jitter_s], so that the robots do not all collide, seconds."
+            "'csma' and 'ns3' models: every transmission (a message or a relay) first waits a "
+            "uniform random time in [0, jitter_s], so that the robots do not all collide, "
+            "seconds."
         ),
     )
     hop_delay_s: float = Field(
@@ -714,6 +716,12 @@ class ScenarioConfig(_Section):
             )
         if self.comms.model == "ns3":
             _check_ns3_comms(self.comms, self.network)
+        if self.comms.model == "csma" and self.comms.loss_model != "iid":
+            raise ValueError(
+                "comms.loss_model must be 'iid' with comms.model = 'csma', whose channel "
+                "decides when losses come in bursts (comms.loss_rate adds i.i.d. loss on top) "
+                f"(got {self.comms.loss_model!r})"
+            )
         if sim.controller == "mpc" and sim.mpc_horizon > 1 and self.network.backend == "ns3":
             raise ValueError(
                 "sim.controller = 'mpc' predicts the network by snapshot and restore, which "

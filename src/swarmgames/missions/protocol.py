@@ -77,6 +77,7 @@ NETWORK_COLUMNS = [
     "bytes_per_robot",
     "alive_robots",
     "olsr_bytes_per_robot",
+    "channel_load",
 ]
 #: Per-robot columns of the communication layer and the faults (metrics.csv, after
 #: METRICS_COLUMNS).
@@ -89,6 +90,7 @@ COMMS_COLUMNS = [
     "bytes_sent",
     "bytes_forwarded",
     "bytes_received",
+    "channel_load",
     "alive",
     "radio",
     "olsr_messages",

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import copy
 import time
+import warnings
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -34,6 +35,7 @@ import numpy as np
 from scipy.sparse import csgraph, csr_array
 
 from swarmgames.arrays import freeze_fields
+from swarmgames.errors import ChannelOverloadWarning
 from swarmgames.network.hops import hop_statistics
 from swarmgames.sim.signals import deferred_interrupts, raise_if_signalled
 from swarmgames.topology import TopologySnapshot
@@ -237,6 +239,13 @@ def _robot_columns(stage, n: int) -> dict[str, np.ndarray]:
     }
 
 
+def _nanmax(values: np.ndarray) -> float:
+    """The largest finite value, NaN if there is none."""
+    finite = np.asarray(values, dtype=float)
+    finite = finite[np.isfinite(finite)]
+    return float(finite.max()) if finite.size else float("nan")
+
+
 def _nanmean(values: np.ndarray) -> float:
     """Mean of the finite values (NaN when there are none)."""
     ok = np.isfinite(values)
@@ -371,6 +380,7 @@ class StageLoop:
         self._snap: TopologySnapshot | None = None
         self._metric_names: tuple[str, ...] = ()
         self._view: StageView | None = None
+        self._overloaded = False
 
     def start(self, states: np.ndarray) -> None:
         """Place the robots at ``states`` at time 0, run the network through the warm-up
@@ -478,6 +488,8 @@ class StageLoop:
         )
         if columns_olsr:
             row["olsr_bytes_per_robot"] = float(np.mean(columns_olsr["olsr_bytes"]))
+        row["channel_load"] = _nanmax(heard.channel_load)
+        self._warn_overload(t, heard.channel_load)
         record = StageRecord(
             t=t,
             actions=np.asarray(dec.actions, dtype=np.int64),
@@ -492,6 +504,23 @@ class StageLoop:
         self.stage, self._prev, self.states, self._snap = self.stage + 1, pos, new_pos, snap_next
         self._view = None
         return record
+
+    def _warn_overload(self, t: float, load: np.ndarray) -> None:
+        """Say once per run when a stage's traffic cannot fit the decision window."""
+        worst = _nanmax(load)
+        if self._overloaded or not worst > 1.0:
+            return
+        self._overloaded = True
+        window = getattr(self.comms, "decide_after_s", float("nan"))
+        warnings.warn(
+            ChannelOverloadWarning(
+                f"at t = {t:g} s the busiest neighbourhood offers {worst * window:.3g} s of "
+                f"airtime for a decision window of {window:g} s (channel load {worst:.2f}): "
+                "messages cannot all arrive by the decision; lower comms.jitter_s or "
+                "network.hops, send smaller messages, or raise comms.decide_after_s"
+            ),
+            stacklevel=2,
+        )
 
     def state(self) -> LoopState:
         """Everything needed to continue from here (see the class notes).

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from swarmgames.comms import IdealComms, RoutedComms
+from swarmgames.comms.csma import CsmaComms
 from swarmgames.comms.ns3_comms import Ns3Comms
 from swarmgames.config import NetworkConfig
 from swarmgames.errors import ConfigError
@@ -112,6 +113,19 @@ def comms_from_config(
     channel = getattr(provider, "model", None)
     if not isinstance(channel, PropagationModel):
         channel = PropagationModel(RadioParameters(**net.radio.model_dump()))
+    if c.model == "csma":
+        return CsmaComms(
+            config.swarm.n_robots,
+            int(state_dim),
+            net.hops,
+            channel,
+            rate_mbps=c.rate_mbps,
+            jitter_s=c.jitter_s,
+            period_s=config.sim.control_period_s,
+            loss_rate=c.loss_rate,
+            **_olsr_frames(net),
+            **beliefs,
+        )
     return RoutedComms(
         config.swarm.n_robots,
         int(state_dim),
@@ -126,3 +140,18 @@ def comms_from_config(
         ge_loss_bad=c.ge_loss_bad,
         **beliefs,
     )
+
+
+def _olsr_frames(net: NetworkConfig) -> dict[str, float | None]:
+    """The rates at which the run's routing protocol sends frames: OLSR's HELLOs, and its TCs
+    unless it runs HELLO-only (the built-in model with h <= 2; ns-3 always sends TCs); the
+    other providers send none."""
+    if net.backend not in ("olsr", "ns3"):
+        return {"hello_interval_s": None, "tc_interval_s": None}
+    olsr = net.olsr
+    flag = olsr.hello_only
+    hello_only = net.backend == "olsr" and (net.hops <= 2 if flag == "auto" else bool(flag))
+    return {
+        "hello_interval_s": olsr.hello_interval_s,
+        "tc_interval_s": None if hello_only else olsr.tc_interval_s,
+    }

@@ -63,6 +63,13 @@ def _finite_median(values) -> float | None:
     return float(np.median(v)) if v.size else None
 
 
+def _finite_max(values) -> float | None:
+    """Largest finite value, None if there is none."""
+    v = np.asarray([] if values is None else values, dtype=float)
+    v = v[np.isfinite(v)]
+    return float(v.max()) if v.size else None
+
+
 def _finite_mean(values) -> float | None:
     """Mean of the finite values, or None (no stage, or nothing finite)."""
     if values is None:
@@ -129,6 +136,7 @@ def summarise(log, config, mission, wall_s: float) -> dict[str, Any]:
         "mean_fresh_fraction": _finite_mean(pr.get("fresh_fraction")),
         "bytes_per_robot_stage": _finite_mean(sw.get("bytes_per_robot")),
         "olsr_bytes_per_robot_stage": _finite_mean(sw.get("olsr_bytes_per_robot")),
+        "max_channel_load": _finite_max(sw.get("channel_load")),
         "robots_failed": int((~pr["alive"][-1]).sum()) if s and "alive" in pr else 0,
         "robots_without_radio": (
             int((pr["alive"][-1] & ~pr["radio"][-1]).sum()) if s and "radio" in pr else 0
