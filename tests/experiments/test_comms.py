@@ -21,10 +21,11 @@ def result():
 
 def test_every_variant_runs_on_every_seed(result):
     runs = result.runs
-    assert len(runs) == 4 * 2
+    assert len(runs) == 5 * 2
     assert all(sorted(g) == [0, 1] for _, g in runs.groupby("variant")["seed"])
     agg = result.aggregate().set_index("variant")
     assert agg.loc["ideal", "mean_info_age_s_mean"] == 0.0
+    assert agg.loc["csma", "mean_info_age_s_mean"] >= 0.1 - 1e-9  # the decision's delay
     lossy = agg.loc["routed, 60% loss"]
     assert lossy["mean_info_age_s_mean"] > agg.loc["routed, 0% loss", "mean_info_age_s_mean"]
     assert lossy["coverage_end_dbm_n"] == 2 and np.isfinite(lossy["coverage_end_dbm_std"])

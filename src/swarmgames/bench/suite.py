@@ -64,6 +64,7 @@ from typing import Any
 import numpy as np
 
 from swarmgames.allocator import reusing_freed_memory
+from swarmgames.bench.comms import channel_vs_ns3, exchange_record
 from swarmgames.bench.game import bench_local_game
 from swarmgames.bench.mission import MISSION_ROBOTS, mission_record
 from swarmgames.bench.stage import StageBench
@@ -105,6 +106,8 @@ TARGETS = (
     Target("dense stage (300 UAVs, K = 300)", "dense_stage", "median_s", 2.0, "s"),
     Target("dense stage memory", "dense_stage", "peak_mb", 2048.0, "MiB"),
     Target("routed comms share of a stage", "routed_comms", "share_of_stage", 0.15, "", min_n=100),
+    Target("csma comms share, N = 1 000", "csma_comms", "share_of_stage", 0.20, "", n_robots=1_000),
+    Target("csma comms share, N = 10 000", "csma_comms", "share_of_stage", 0.25, "", n_robots=10_000),
     Target(
         "whole mission (1 000 UAVs, 60 stages, every output)",
         "mission",
@@ -229,11 +232,19 @@ class BenchResult:
                     f"  compiled batch vs numpy one by one ({kind}): "
                     f"{r['ratio_vs_numpy_single']:.0f}x"
                 )
-        for r in self._of("routed_comms"):
-            notes.append(
-                f"routed comms exchange at N = {r['n_robots']:,}: {_fmt_s(r['median_s'])} "
-                f"({100 * r['share_of_stage']:.1f} % of a stage)"
-            )
+        for model in ("routed", "csma"):
+            for r in self._of(f"{model}_comms"):
+                notes.append(
+                    f"{model} comms exchange at N = {r['n_robots']:,}: "
+                    f"{_fmt_s(r['median_s'])} ({100 * r['share_of_stage']:.1f} % of a stage)"
+                )
+        for r in self._of("csma_vs_ns3"):
+            if "ratio" in r:
+                notes.append(
+                    f"csma vs ns-3 packets ({r['trace']}, {r['n_robots']} UAVs): "
+                    f"{r['ratio']:.0f}x faster per exchange ({_fmt_s(r['csma_s'])} vs "
+                    f"{_fmt_s(r['ns3_s'])})"
+                )
         for r in self._of("takeoff"):
             what = "all in range" if r["dense"] else "default take-off"
             notes.append(
@@ -525,33 +536,6 @@ def _takeoff_record(n: int, dense: bool, repeats: int, seed: int) -> dict:
     }
 
 
-def _routed_comms(sb: StageBench, stage_s: float, repeats: int, seed: int) -> dict:
-    """One routed exchange (:class:`~swarmgames.comms.RoutedComms`: compose, flood over h
-    hops, merge the belief tables, build the inboxes) on the stage benchmark's swarm, median
-    of ``repeats`` (after one untimed exchange that fills the belief tables), and its share
-    of a stage."""
-    from swarmgames.sim.providers import comms_from_config
-
-    cfg = sb.config.with_overrides({"comms.model": "routed"})
-    comms = comms_from_config(cfg, sb.states.shape[1], sb.provider)
-    rng = np.random.default_rng(seed)
-    comms.exchange(sb.time, sb.snapshot, sb.states, rng)
-    samples = []
-    for k in range(max(1, repeats)):
-        t0 = time.perf_counter()
-        comms.exchange(sb.time + k + 1.0, sb.snapshot, sb.states, rng)
-        samples.append(time.perf_counter() - t0)
-    med = float(np.median(samples))
-    return {
-        "benchmark": "routed_comms",
-        "n_robots": sb.n_robots,
-        "median_s": med,
-        "share_of_stage": med / stage_s if stage_s > 0 else float("nan"),
-        "repeats": max(1, repeats),
-        "unit": "per control period",
-    }
-
-
 def _engines() -> tuple[str, ...]:
     """Mean-field engines compared by the batching benchmarks: the compiled one (when Numba
     is installed) and the numpy BLAS reference."""
@@ -788,7 +772,8 @@ def run_suite(
         _say(progress, f"stage, N = {n:,} ({reps} repeats)")
         recs, sb = _stage_records(int(n), reps, seed, int(workers))
         records.extend(recs)
-        records.append(_routed_comms(sb, recs[0]["median_s"], reps, seed))
+        records.append(exchange_record(sb, "routed", recs[0]["median_s"], reps, seed))
+        records.append(exchange_record(sb, "csma", recs[0]["median_s"], reps, seed))
         _say(progress, f"  {_fmt_s(recs[0]['median_s'])} per stage")
         if n <= 1_000:
             ratio_bench = sb
@@ -872,6 +857,8 @@ def run_suite(
     if ns3:
         _say(progress, "olsr vs ns-3 (importing ns-3 takes ~10 s)")
         records.append(_olsr_vs_ns3(30, 30.0, seed))
+        _say(progress, "shared channel vs ns-3 packets, 40 UAVs within 1 200 m")
+        records.append(channel_vs_ns3(seed=seed))
     result = BenchResult(
         records,
         {

@@ -8,8 +8,8 @@ frame — is simulated on one channel, event by event (:func:`simulate`):
   time for a relay (as the ``ns3`` model and OLSR do, RFC 3626 section 3.5). A control frame
   is ready at its given time.
 * **Carrier sense and DCF** (IEEE 802.11-2016 10.3; ns-3's ``ChannelAccessManager``). A node
-  senses the medium busy while a frame it can hear (received at or above the reception
-  threshold, -82 dBm) is on the air, or while it transmits. A frame that becomes ready at an
+  senses the medium busy while the frames on the air reach it with at least ``cca_dbm``
+  (-82 dBm, ns-3's ``CcaSensitivity``) together, or while it transmits. A frame that becomes ready at an
   idle MAC whose medium has been idle for DIFS (34 µs) and whose backoff has run out goes at
   once; otherwise the node draws a backoff of ``U{0..15}`` slots of 9 µs where none is left
   (ns-3's ``NeedBackoffUponAccess``) and counts it down while the medium is idle, DIFS after
@@ -23,8 +23,8 @@ frame — is simulated on one channel, event by event (:func:`simulate`):
   (:func:`~swarmgames.comms.wire.ofdm_airtime_s`).
 * **Reception by SINR, with capture** (ns-3's ``InterferenceHelper`` and preamble detection):
   an idle receiver that is not transmitting locks onto a frame received at or above the
-  threshold whose SINR at its start is at least ``sinr_db``; the frame is received when its
-  SINR stays at least ``sinr_db`` until its end: against the thermal noise plus the power of
+  threshold whose SINR at its start is at least ``detect_db``; the frame is received when
+  its SINR stays at least ``decode_db`` until its end: against the thermal noise plus the power of
   every other frame on the air at the receiver, audible or not (down to ``floor_dbm``). A
   frame that starts while the receiver is locked onto another is interference only; a
   receiver that starts transmitting loses the frame it was receiving. Hidden terminals and
@@ -34,7 +34,7 @@ frame — is simulated on one channel, event by event (:func:`simulate`):
   reception at depth d < ``ttl`` it relays the message once.
 
 The simulation runs until the channel is quiet, so a message may arrive after the decision;
-the caller decides what counts. Random draws (jitter, backoffs) come from a counter-based
+the caller decides what counts. Random draws (jitter, backoffs, configured loss) come from a counter-based
 generator (SplitMix64) keyed by one 64-bit seed that the caller draws from the run's numpy
 Generator: the result depends on the seed alone, never on threads.
 """
@@ -69,12 +69,18 @@ class Mac:
     noise_dbm : float
         Thermal noise over 20 MHz with ns-3's 7 dB noise figure.
     detect_db : float
-        SINR a frame needs at its start for the receiver to lock onto it (ns-3's
-        ``ThresholdPreambleDetectionModel``: 4 dB).
+        SINR a frame needs at its start for the receiver to lock onto it.
     decode_db : float
-        SINR the frame needs throughout to be decoded.
+        SINR the frame needs throughout to be decoded. Both are calibrated against the
+        recorded ns-3 runs (docs/comms.md, "Fidelity against ns-3"): ns-3 detects a
+        preamble from 4 dB and then decodes by a packet error rate that is still small at
+        2 dB for these short frames at 6 Mbit/s; one threshold of 2 dB for both reproduces its
+        delivery at every recorded density.
     floor_dbm : float
         Frames received below this power are not counted as interference.
+    cca_dbm : float
+        A node senses the medium busy while the power it receives from the frames on the air
+        adds up to at least this (ns-3's ``CcaSensitivity``, -82 dBm).
     """
 
     slot_s: float = 9e-6
@@ -82,9 +88,10 @@ class Mac:
     cw_min: int = 15
     cca_s: float = 4e-6
     noise_dbm: float = -93.97
-    detect_db: float = 4.0
-    decode_db: float = 4.0
-    floor_dbm: float = -100.0
+    detect_db: float = 2.0
+    decode_db: float = 2.0
+    floor_dbm: float = -92.0
+    cca_dbm: float = -82.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -220,7 +227,6 @@ def _kernel(
     hptr,
     hv,
     hpow,
-    hcs,
     hlink,
     own_ready,
     own_air,
@@ -241,6 +247,7 @@ def _kernel(
     detect,
     decode,
     rx_mw,
+    cs_mw,
 ):
     # Frames: node, message (-1: control), depth, airtime; a FIFO queue per node.
     cap = 4 * n + ctl_node.size + 16
@@ -259,7 +266,6 @@ def _kernel(
     # Nodes.
     head = np.full(n, -1, np.int64)
     tail = np.full(n, -1, np.int64)
-    busy = np.zeros(n, np.int64)
     busy_from = np.zeros(n, np.float64)
     txing = np.zeros(n, np.bool_)
     idle_since = np.full(n, -1e30)
@@ -321,7 +327,7 @@ def _kernel(
             tail[v] = f
             if not contending[v] and not txing[v] and head[v] == f:
                 contending[v] = True
-                if busy[v] == 0:
+                if total[v] < cs_mw:
                     idle = now - idle_since[v]
                     left = backoff[v]
                     if idle >= difs:
@@ -354,18 +360,17 @@ def _kernel(
             u = f_node[f]
             for e in range(hptr[u], hptr[u + 1]):
                 v = hv[e]
+                was = total[v] >= cs_mw
                 n_on[v] -= 1
                 total[v] = 0.0 if n_on[v] == 0 else total[v] - hpow[e]
-                if hcs[e]:
-                    busy[v] -= 1
-                    if busy[v] == 0 and not txing[v]:
-                        idle_since[v] = now
-                        if contending[v]:
-                            access_at[v] = now + difs + backoff[v] * slot
-                            version[v] += 1
-                            ev, et = _push(ev, et, ne, seq, access_at[v], _ACCESS, v, version[v])
-                            ne += 1
-                            seq += 1
+                if was and total[v] < cs_mw and not txing[v]:  # the medium turns idle
+                    idle_since[v] = now
+                    if contending[v]:
+                        access_at[v] = now + difs + backoff[v] * slot
+                        version[v] += 1
+                        ev, et = _push(ev, et, ne, seq, access_at[v], _ACCESS, v, version[v])
+                        ne += 1
+                        seq += 1
                 if lock[v] != f:
                     continue
                 lock[v] = -1
@@ -425,11 +430,11 @@ def _kernel(
             txing[u] = False
             backoff[u] = _draw_backoff(seed, draws, cw)
             draws += 1
-            if busy[u] == 0:
+            if total[u] < cs_mw:
                 idle_since[u] = now
             if head[u] >= 0:
                 contending[u] = True
-                if busy[u] == 0:
+                if total[u] < cs_mw:
                     access_at[u] = now + difs + backoff[u] * slot
                     version[u] += 1
                     ev, et = _push(ev, et, ne, seq, access_at[u], _ACCESS, u, version[u])
@@ -457,12 +462,12 @@ def _kernel(
             for e in range(hptr[u], hptr[u + 1]):
                 v = hv[e]
                 pw = hpow[e]
+                was = total[v] >= cs_mw
                 total[v] += pw
                 n_on[v] += 1
-                if hcs[e]:
-                    busy[v] += 1
-                    if busy[v] == 1 and not txing[v]:
-                        busy_from[v] = now
+                if not was and total[v] >= cs_mw:
+                    busy_from[v] = now
+                    if not txing[v]:
                         # the medium turns busy: the countdown stops at the slots elapsed
                         counted = now - (idle_since[v] + difs)
                         if counted > 0:
@@ -587,7 +592,6 @@ def simulate(
         indptr,
         np.asarray(heard, np.int64)[keep],
         mw[keep],
-        mw[keep] >= rx_mw,
         np.asarray(link, dtype=bool)[keep],
         np.asarray(own_ready_s, np.float64),
         np.asarray(own_airtime_s, np.float64),
@@ -608,6 +612,7 @@ def simulate(
         10.0 ** (mac.detect_db / 10.0),
         10.0 ** (mac.decode_db / 10.0),
         rx_mw,
+        10.0 ** (mac.cca_dbm / 10.0),
     )
     order = np.argsort(node * max(n, 1) + msg)
     return ChannelResult(

@@ -100,6 +100,11 @@ class CsmaComms(BeliefComms):
     tc_interval_s: float | None = None
     loss_rate: float = 0.0
     mac: Mac = field(default_factory=Mac)
+    _reach: float = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self._reach = interference_range(self.propagation, self.mac.floor_dbm)
+        super().__post_init__()
 
     def state(self) -> dict:
         """What the robots remember between stages: the belief tables (immutable)."""
@@ -120,14 +125,14 @@ class CsmaComms(BeliefComms):
         from scipy.spatial import cKDTree
 
         n = pos.shape[0]
-        reach = interference_range(self.propagation, self.mac.floor_dbm)
-        pairs = cKDTree(pos).query_pairs(reach, output_type="ndarray")
-        u = np.concatenate([pairs[:, 0], pairs[:, 1]]).astype(np.int64)
-        v = np.concatenate([pairs[:, 1], pairs[:, 0]]).astype(np.int64)
+        pairs = cKDTree(pos).query_pairs(self._reach, output_type="ndarray").astype(np.int64)
+        a, b = pairs[:, 0], pairs[:, 1]
+        d = np.sqrt(np.einsum("ij,ij->i", pos[a] - pos[b], pos[a] - pos[b]))
+        one_way = self.propagation.rx_power(d, rng, pairs=(np.minimum(a, b), np.maximum(a, b)))
+        u, v = np.concatenate([a, b]), np.concatenate([b, a])
         order = np.argsort(u * n + v)
         u, v = u[order], v[order]
-        d = np.linalg.norm(pos[u] - pos[v], axis=1)
-        power = self.propagation.rx_power(d, rng, pairs=(np.minimum(u, v), np.maximum(u, v)))
+        power = np.concatenate([one_way, one_way])[order]
         indptr = np.concatenate([[0], np.cumsum(np.bincount(u, minlength=n))])
         return indptr, u, v, power
 

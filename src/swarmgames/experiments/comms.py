@@ -74,6 +74,7 @@ class CommsResult:
         axs = fig.subplots(1, 3)
         routed = agg[(agg["comms"] == "routed") & (agg["crashed"] == 0)]
         ideal = agg[agg["comms"] == "ideal"]
+        csma = agg[agg["comms"] == "csma"]
         for ax, name, label in (
             (axs[0], "coverage_end_dbm", "coverage at the end (dBm)"),
             (axs[1], "mean_info_age_s", "mean information age (s)"),
@@ -88,6 +89,13 @@ class CommsResult:
             )
             if len(ideal):
                 ax.axhline(float(ideal[f"{name}_mean"].iloc[0]), ls="--", color="k", label="ideal")
+            if len(csma):
+                ax.axhline(
+                    float(csma[f"{name}_mean"].iloc[0]),
+                    ls=":",
+                    color="tab:red",
+                    label="csma (shared channel)",
+                )
             ax.set_xlabel("loss rate (%)")
             ax.set_ylabel(label)
             ax.legend(fontsize="small")
@@ -122,7 +130,7 @@ class CommsResult:
 def _variants(base: ScenarioConfig, loss_rates, crashes) -> list[tuple[str, dict]]:
     n = base.swarm.n_robots
     mid = base.sim.warmup_s + base.sim.duration_s / 2
-    out = [("ideal", {"comms.model": "ideal"})]
+    out = [("ideal", {"comms.model": "ideal"}), ("csma", {"comms.model": "csma"})]
     out += [
         (f"routed, {p:.0%} loss", {"comms.model": "routed", "comms.loss_rate": p})
         for p in loss_rates
