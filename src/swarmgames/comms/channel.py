@@ -284,7 +284,7 @@ def _kernel(
     airtime = np.zeros(n, np.float64)
     # First receptions: an open-addressing set of message * n + node, and their records.
     hcap = 1
-    while hcap < 8 * (hv.size + n):
+    while hcap < 64 * n:  # grown as it fills
         hcap *= 2
     hkeys = np.full(hcap, -1, np.int64)
     r_node = np.empty(cap, np.int64)

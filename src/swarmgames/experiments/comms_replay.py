@@ -300,17 +300,16 @@ def replay_recording(folder, *, comms: str = "csma", seed: int = 0, overrides=()
     rec = read_recording(folder)
     meta = rec.meta
     trace = PositionTrace.from_frame(rec.positions, source=str(folder))
-    cfg = ScenarioConfig().with_overrides(
-        {
-            "swarm.n_robots": rec.n_robots,
-            "network.hops": int(meta["hops"]),
-            "network.olsr.hello_only": False,
-            "comms.model": comms,
-            "comms.jitter_s": float(meta["jitter_s"]),
-            "comms.decide_after_s": float(meta["decide_after_s"]),
-            **dict(overrides),
-        }
-    )
+    settings = {
+        "swarm.n_robots": rec.n_robots,
+        "network.hops": int(meta["hops"]),
+        "network.olsr.hello_only": False,
+        "comms.model": comms,
+        "comms.decide_after_s": float(meta["decide_after_s"]),
+    }
+    if comms == "csma":  # the recording's jitter; the routed model has none
+        settings["comms.jitter_s"] = float(meta["jitter_s"])
+    cfg = ScenarioConfig().with_overrides({**settings, **dict(overrides)})
     frames = []
     for run in rec.runs:
         model = comms_from_config(cfg, int(meta["state_dim"]), None)
