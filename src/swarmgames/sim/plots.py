@@ -17,6 +17,7 @@ __all__ = [
     "DENSE_ROBOTS",
     "draw_background",
     "link_lines",
+    "link_segments",
     "mission_columns",
     "plot_paths",
     "plot_timeseries",
@@ -35,18 +36,28 @@ def _cycle(n: int) -> list:
     return [colours[i % len(colours)] for i in range(n)]
 
 
-def link_lines(xy: np.ndarray, edges: np.ndarray, wide: bool = False) -> LineCollection:
-    """The 1-hop links ``edges`` (E, 2) between the positions ``xy`` (N, 2) as one
-    collection; ``wide`` (a swarm of more than :data:`DENSE_ROBOTS`): thin, faint lines, all
-    of them one polyline broken by NaN (a segment each costs matplotlib a Python object: 60 ms
-    for the 7 000 links of 1 000 UAVs)."""
+def link_segments(xy: np.ndarray, edges: np.ndarray, wide: bool = False):
+    """The segments of the 1-hop links ``edges`` (E, 2) between the positions ``xy`` (N, 2);
+    ``wide``: all of them one polyline broken by NaN (a segment each costs matplotlib a
+    Python object: 60 ms for the 7 000 links of 1 000 UAVs). An array (E, 2, 2), or a list
+    of one polyline (3 E, 2)."""
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
     segments = xy[edges]
     if wide and len(segments):
         gaps = np.full((len(segments), 1, 2), np.nan)
-        segments = [np.concatenate([segments, gaps], axis=1).reshape(-1, 2)]
+        return [np.concatenate([segments, gaps], axis=1).reshape(-1, 2)]
+    return segments
+
+
+def link_lines(xy: np.ndarray, edges: np.ndarray, wide: bool = False) -> LineCollection:
+    """The 1-hop links ``edges`` (E, 2) between the positions ``xy`` (N, 2) as one
+    collection (:func:`link_segments`); ``wide`` (a swarm of more than
+    :data:`DENSE_ROBOTS`): thin, faint lines."""
     return LineCollection(
-        segments, colors="0.5", linewidths=0.3 if wide else 0.7, alpha=0.35 if wide else 0.8
+        link_segments(xy, edges, wide),
+        colors="0.5",
+        linewidths=0.3 if wide else 0.7,
+        alpha=0.35 if wide else 0.8,
     )
 
 
