@@ -22,7 +22,7 @@ from swarmgames.errors import (
     RunFolderError,
     SwarmgamesError,
 )
-from swarmgames.network.factory import BACKENDS
+from swarmgames.names import BACKENDS
 
 __all__ = ["cli", "main"]
 
