@@ -267,9 +267,11 @@ class RunJournal:
         self.checkpoint_stage = self.stages
 
     # ------------------------------------------------------------------ the end
-    def finish(self, result, *, animation: bool, frames: int) -> list:
+    def finish(self, result, *, animation: bool, frames: int, progress=None) -> list:
         """Append the states after the last stage to the trajectory, write the figures, the
-        animation and the summary; a complete run drops its checkpoint."""
+        animation and the summary (``progress(done, total)`` as
+        :meth:`~swarmgames.sim.result.RunResult.write_outputs` calls it); a complete run
+        drops its checkpoint."""
         interrupted = result.interrupted
         n = self.start.shape[0]
         self.tables["trajectory"].append(result.trajectory.iloc[-n:])  # after the last stage
@@ -277,7 +279,7 @@ class RunJournal:
             if self.tables[name].rows == 0:  # no stage completed: the columns alone
                 self.tables[name].append(frame.iloc[:0])
         self._close()
-        written = result.write_outputs(self.folder, animation, frames)
+        written = result.write_outputs(self.folder, animation, frames, progress)
         if not interrupted:
             shutil.rmtree(self.folder.file(CHECKPOINT_DIR), ignore_errors=True)
             self.folder.written[:] = [

@@ -174,7 +174,7 @@ def run(
                 out, config, loop, states, n_stages, mission=mission.name, custom=custom
             )
         log = _drive(loop, states, n_stages, config, progress, journal, [], 0.0)
-        return _finish(log, config, mission, time.perf_counter() - t0, journal)
+        return _finish(log, config, mission, time.perf_counter() - t0, journal, progress)
 
 
 def _drive(loop, states, n_stages, config, progress, journal, records, wall_s) -> StageLog:
@@ -198,10 +198,18 @@ def _drive(loop, states, n_stages, config, progress, journal, records, wall_s) -
             raise
 
 
-def _finish(log, config, mission, wall_s: float, journal) -> RunResult:
+def _finish(log, config, mission, wall_s: float, journal, progress: bool) -> RunResult:
+    """The run's result; with a run folder, its figures, animation and summary written under
+    a progress bar of their own."""
     result = RunResult.from_log(log, config, mission, wall_s)
     if journal is not None:
-        journal.finish(result, animation=config.sim.animation, frames=config.sim.animation_frames)
+        with ProgressBar(f"{config.name}: figures and animation", progress) as tick:
+            journal.finish(
+                result,
+                animation=config.sim.animation,
+                frames=config.sim.animation_frames,
+                progress=tick,
+            )
     return result
 
 
@@ -278,7 +286,8 @@ def resume(
         log = _drive(
             loop, journal.start, n_stages, config, progress, journal, records, checkpoint.wall_s
         )
-        return _finish(log, config, mission, checkpoint.wall_s + time.perf_counter() - t0, journal)
+        wall_s = checkpoint.wall_s + time.perf_counter() - t0
+        return _finish(log, config, mission, wall_s, journal, progress)
 
 
 def _rebuild(out, config, mission, manifest) -> None:
