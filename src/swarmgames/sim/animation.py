@@ -129,11 +129,11 @@ class FrameDrawer:
             )
             self.ok = None
         else:
-            self.ok = ax.scatter([], [], s=18, color="tab:blue", zorder=3)
-        self.deaf = ax.scatter([], [], s=8 if wide else 22, color="0.6", zorder=3)
-        self.dead = ax.scatter([], [], s=12 if wide else 40, marker="x", color="k", zorder=4)
-        self.near = ax.scatter([], [], s=8 if wide else 30, color="tab:orange", zorder=4)
-        self.zero = ax.scatter([], [], s=70, color="red", edgecolors="k", zorder=5)
+            self.ok = _dots(ax, 18, "tab:blue", 3)
+        self.deaf = _dots(ax, 8 if wide else 22, "0.6", 3)
+        self.dead = _dots(ax, 12 if wide else 40, "k", 4, marker="x")
+        self.near = _dots(ax, 8 if wide else 30, "tab:orange", 4)
+        self.zero = _dots(ax, 70, "red", 5, edge="k")
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_aspect("equal")
@@ -157,17 +157,17 @@ class FrameDrawer:
         self.links.set_segments(link_segments(xy, edges, self.wide))
         ok = alive & radio
         if self.density is None:
-            self.ok.set_offsets(xy[ok])
+            _place(self.ok, xy[ok])
         else:
             counts = np.histogram2d(
                 xy[ok, 0], xy[ok, 1], bins=DENSITY_BINS, range=[[lo[0], hi[0]], [lo[1], hi[1]]]
             )[0]
             self.density.set_data(np.ma.masked_equal(counts.T, 0))
             self.density.set_clim(0, max(float(counts.max()), 1.0))
-        self.deaf.set_offsets(xy[alive & ~radio])
-        self.dead.set_offsets(xy[~alive])
-        self.near.set_offsets(xy[_two_hop(edges, self.n, 0)])
-        self.zero.set_offsets(xy[:1])
+        _place(self.deaf, xy[alive & ~radio])
+        _place(self.dead, xy[~alive])
+        _place(self.near, xy[_two_hop(edges, self.n, 0)])
+        _place(self.zero, xy[:1])
         self.clock.set_text(f"t = {t:.0f} s")
 
     def draw(self, xy, edges, alive, radio, t: float) -> np.ndarray:
@@ -177,6 +177,26 @@ class FrameDrawer:
         for artist in (*self.layers, self.clock):
             self.ax.draw_artist(artist)
         return np.asarray(self.canvas.buffer_rgba())[..., :3]
+
+
+def _dots(ax, size: float, colour, zorder: float, marker: str = "o", edge=None):
+    """Markers of area ``size`` (points², as scatter's ``s``) as one Line2D: a line's markers
+    are drawn without the per-draw path extents a one-point scatter computes."""
+    (line,) = ax.plot(
+        [],
+        [],
+        ls="none",
+        marker=marker,
+        ms=float(np.sqrt(size)),
+        color=colour,
+        mec=colour if edge is None else edge,
+        zorder=zorder,
+    )
+    return line
+
+
+def _place(line, xy: np.ndarray) -> None:
+    line.set_data(xy[:, 0], xy[:, 1])
 
 
 def draw_frame(mission, xy, edges, alive, radio, t: float) -> np.ndarray:
