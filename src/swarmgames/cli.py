@@ -850,11 +850,14 @@ def config_check(file: Path) -> None:
 
 @config.command("list")
 def config_list() -> None:
-    """List the built-in scenarios."""
+    """List the built-in scenarios, each with a one-line description."""
     from swarmgames.config import builtin_scenarios
+    from swarmgames.config.io import scenario_description
 
-    for name in builtin_scenarios():
-        click.echo(name)
+    names = builtin_scenarios()
+    width = max(map(len, names))
+    for name in names:
+        click.echo(f"{name:<{width}}  {scenario_description(name)}")
 
 
 # ----------------------------------------------------------------------------- missions
