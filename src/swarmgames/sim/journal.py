@@ -267,9 +267,11 @@ class RunJournal:
         self.checkpoint_stage = self.stages
 
     # ------------------------------------------------------------------ the end
-    def finish(self, result, *, animation: bool, frames: int, progress=None) -> list:
-        """Append the states after the last stage to the trajectory, write the figures, the
-        animation and the summary (``progress(done, total)`` as
+    def finish(
+        self, result, *, animation: bool, frames: int, progress=None, figures: bool = True
+    ) -> list:
+        """Append the states after the last stage to the trajectory, write the figures (unless
+        ``figures`` is false), the animation and the summary (``progress(done, total)`` as
         :meth:`~swarmgames.sim.result.RunResult.write_outputs` calls it); a complete run
         drops its checkpoint."""
         interrupted = result.interrupted
@@ -279,7 +281,7 @@ class RunJournal:
             if self.tables[name].rows == 0:  # no stage completed: the columns alone
                 self.tables[name].append(frame.iloc[:0])
         self._close()
-        written = result.write_outputs(self.folder, animation, frames, progress)
+        written = result.write_outputs(self.folder, animation, frames, progress, figures)
         if not interrupted:
             shutil.rmtree(self.folder.file(CHECKPOINT_DIR), ignore_errors=True)
             self.folder.written[:] = [

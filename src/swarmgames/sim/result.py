@@ -269,13 +269,14 @@ class RunResult:
         return self.files
 
     def write_outputs(
-        self, folder, animation: bool = True, frames: int = 60, progress=None
+        self, folder, animation: bool = True, frames: int = 60, progress=None, figures=True
     ) -> list:
         """Write what is made from the tables at the end: the PNGs, animation.gif and
         summary.json (a run's journal has appended the tables stage by stage).
 
         ``progress``, if given, is called as ``progress(done, total)`` after each figure and
-        each frame of the animation (one unit each)."""
+        each frame of the animation (one unit each); ``figures=False`` writes the summary
+        alone (the runs of a sweep)."""
         from swarmgames.sim.animation import render_gif
 
         def tick(done: int, total: int) -> None:
@@ -283,7 +284,7 @@ class RunResult:
                 progress(done, total)
 
         written = []
-        if len(self.swarm):
+        if len(self.swarm) and figures:
             total = 2 + (min(int(frames), len(self.swarm)) if animation else 0)
             fig = self.plot()
             written.append(folder.save_figure("timeseries.png", fig))

@@ -284,3 +284,16 @@ def test_a_run_folder_written_before_a_field_was_added_is_the_same_run(reference
     again = swarmgames.sweep(BASE, GRID, SEEDS, jobs=1, out=out)
     assert executed == []
     _same_numbers(again, res)
+
+
+def test_runs_of_a_sweep_write_no_figures_unless_asked(reference, tmp_path):
+    # A small run's figures and animation cost more than its stages: off by default, while
+    # the sweep's own figures stay.
+    out, res = reference
+    for row in res.itertuples():
+        names = {p.name for p in (out / row.folder).iterdir()}
+        assert "summary.json" in names and not names & {"timeseries.png", "paths.png"}
+    base = BASE.with_overrides({"sim.animation": True})
+    drawn = swarmgames.sweep(base, None, [0], jobs=1, out=tmp_path / "s", run_figures=True)
+    names = {p.name for p in (tmp_path / "s" / drawn.iloc[0]["folder"]).iterdir()}
+    assert {"timeseries.png", "paths.png", "animation.gif"} <= names

@@ -218,6 +218,7 @@ def sweep(
     out: str | Path,
     progress: bool = False,
     metrics: Sequence[str] | None = None,
+    run_figures: bool = False,
 ) -> pd.DataFrame:
     """Run a scenario over a grid of overrides and seeds, one run folder per run, and write
     the results, their statistics and plots (module notes, docs/sweep.md).
@@ -249,6 +250,10 @@ def sweep(
     metrics : sequence of str, optional
         Summary figures to plot (default: ``coverage_end_dbm`` if the runs have it, else
         ``mean_payoff_end``).
+    run_figures : bool, default False
+        Also write each run's ``timeseries.png``, ``paths.png`` and ``animation.gif`` (they
+        cost more than the stages of a small run); the sweep's own figures are written
+        either way.
 
     Returns
     -------
@@ -307,7 +312,12 @@ def sweep(
     ]
     todo = [i for i, f in enumerate(found) if f.kind != "done"]
     tasks = [
-        RunTask(str(runs / plan.points[i].folder), plan.points[i].config, found[i].kind == "resume")
+        RunTask(
+            str(runs / plan.points[i].folder),
+            plan.points[i].config,
+            found[i].kind == "resume",
+            figures=run_figures,
+        )
         for i in todo
     ]
     from swarmgames.sim.progress import ProgressBar
