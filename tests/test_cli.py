@@ -484,3 +484,20 @@ def test_run_with_a_refinement_and_a_bad_refinement(runner, tmp_path):
                               "game.refine=nash"])  # fmt: skip
     assert bad.exit_code == 2
     assert "game.refine" in bad.output and "Traceback" not in bad.output
+
+
+def test_config_list_describes_every_scenario(runner):
+    res = runner.invoke(cli, ["config", "list"])
+    assert res.exit_code == 0
+    lines = res.output.splitlines()
+    assert lines[0].split()[0] == "coverage" and "default" in lines[0]
+    assert all(len(line.split()) > 3 for line in lines)
+
+
+def test_a_setting_without_effect_is_one_line_naming_both_fields(runner):
+    res = runner.invoke(
+        cli, ["config", "show", "--set", "comms.model=ideal", "--set", "comms.loss_rate=0.4"]
+    )
+    assert res.exit_code == 2
+    assert "comms.loss_rate" in res.output and "comms.model = 'ideal'" in res.output
+    assert "(got 0.4)" in res.output and len(res.output.strip().splitlines()) == 1

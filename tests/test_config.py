@@ -322,3 +322,49 @@ def test_config_check_applies_the_missions_rules(tmp_path):
     res = CliRunner().invoke(cli, ["config", "check", str(path)])
     assert res.exit_code == 2
     assert "game.alpha_b must be > 0 for the pairwise crowding penalty" in res.output
+
+
+@pytest.mark.parametrize(
+    ("model", "field", "value"),
+    [
+        ("ideal", "loss_rate", 0.4),
+        ("ideal", "loss_model", "'gilbert_elliott'"),
+        ("ideal", "ge_good_to_bad", 0.2),
+        ("ideal", "ge_bad_to_good", 0.2),
+        ("ideal", "ge_loss_bad", 0.5),
+        ("ideal", "hop_delay_s", 0.01),
+        ("routed", "jitter_s", 0.02),
+        ("ideal", "jitter_s", 0.02),
+        ("csma", "loss_model", "'gilbert_elliott'"),
+        ("csma", "hop_delay_s", 0.01),
+        ("csma", "ge_loss_bad", 0.5),
+    ],
+)
+def test_a_comms_field_without_effect_under_the_model_is_an_error(model, field, value):
+    # A setting that does nothing under comms.model would make a grid run one point twice.
+    from swarmgames.config import resolve_scenario
+    from swarmgames.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=rf"comms\.{field} has no effect with comms\.model = "):
+        resolve_scenario("coverage", [f"comms.model='{model}'", f"comms.{field}={value}"])
+
+
+def test_comms_fields_at_their_defaults_or_under_their_model_are_valid():
+    from swarmgames.config import resolve_scenario
+
+    resolve_scenario("coverage", ["comms.model='ideal'", "comms.loss_rate=0.0"])
+    cfg = resolve_scenario(
+        "coverage", ["comms.model='routed'", "comms.loss_rate=0.4", "comms.hop_delay_s=0.01"]
+    )
+    assert (cfg.comms.model, cfg.comms.loss_rate) == ("routed", 0.4)
+    cfg = resolve_scenario("coverage", ["comms.loss_rate=0.1", "comms.jitter_s=0.02"])
+    assert (cfg.comms.model, cfg.comms.jitter_s) == ("csma", 0.02)
+
+
+def test_every_builtin_scenario_has_a_one_line_description():
+    from swarmgames.config import builtin_scenarios
+    from swarmgames.config.io import scenario_description
+
+    for name in builtin_scenarios():
+        text = scenario_description(name)
+        assert 20 <= len(text) <= 96 and "\n" not in text, name

@@ -18,6 +18,7 @@ BASE = (
     "swarmgames.allocator",
     "swarmgames.arrays",
     "swarmgames.errors",
+    "swarmgames.labels",
     "swarmgames.names",
     "swarmgames.rng",
     "swarmgames.runfolder",

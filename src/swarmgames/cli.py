@@ -23,8 +23,7 @@ from swarmgames.errors import (
     RunFolderError,
     SwarmgamesError,
 )
-from swarmgames.names import COMMS_MODELS
-from swarmgames.network.factory import BACKENDS
+from swarmgames.names import BACKENDS, COMMS_MODELS
 
 __all__ = ["cli", "main"]
 
@@ -466,6 +465,12 @@ def _reproduce_fig2_scale(
     metavar="NAME",
     help="Summary figure to plot (repeatable; default: coverage_end_dbm, else mean_payoff_end).",
 )
+@click.option(
+    "--run-figures",
+    is_flag=True,
+    help="Also write every run's timeseries.png, paths.png and animation.gif (off: the "
+    "runs' tables and summaries, and the sweep's own figures).",
+)
 @click.option("--no-progress", is_flag=True, help="Do not show a progress bar.")
 @_guarded
 def sweep(
@@ -478,6 +483,7 @@ def sweep(
     address: str | None,
     out: Path,
     metrics: tuple[str, ...],
+    run_figures: bool,
     no_progress: bool,
 ) -> None:
     """Run SCENARIO (a built-in name or a TOML file; default: coverage) over the grid of the
@@ -485,11 +491,12 @@ def sweep(
 
     Every combination is checked against the configuration schema before the first run.
     Writes into OUT: sweep.json, the base config.toml, runs/<name>/ (run folders as `run`
-    writes them), results.csv (one row per run: the factors, the seed, status, error, the
-    run's summary), aggregate.csv (per combination and figure: n, mean, std, 95 % interval),
-    paired.csv (each level minus a factor's first level on the same seeds) and a plot per
-    --metric. A failed run is recorded with its error and the sweep goes on. The same
-    command again resumes: complete runs are read, interrupted ones continued, failed ones
+    writes them, without figures unless --run-figures), results.csv (one row per run: the
+    factors, the seed, status, error, the run's summary), aggregate.csv (per combination
+    and figure: n, mean, std, 95 % interval), paired.csv (each level minus a factor's first
+    level on the same seeds) and a plot per --metric. A failed run is recorded with its
+    error and the sweep goes on. The same command again resumes: complete runs are read,
+    interrupted ones continued, failed ones
     rerun. Exit 1 if a run failed, 130 if interrupted.
 
     \b
@@ -519,6 +526,7 @@ def sweep(
         out=out,
         progress=not no_progress and _interactive(),
         metrics=list(metrics) or None,
+        run_figures=run_figures,
     )
     _report_runs(results, out, list(metrics), "swarmgames sweep")
 
@@ -852,11 +860,14 @@ def config_check(file: Path) -> None:
 
 @config.command("list")
 def config_list() -> None:
-    """List the built-in scenarios."""
+    """List the built-in scenarios, each with a one-line description."""
     from swarmgames.config import builtin_scenarios
+    from swarmgames.config.io import scenario_description
 
-    for name in builtin_scenarios():
-        click.echo(name)
+    names = builtin_scenarios()
+    width = max(map(len, names))
+    for name in names:
+        click.echo(f"{name:<{width}}  {scenario_description(name)}")
 
 
 # ----------------------------------------------------------------------------- missions

@@ -323,11 +323,14 @@ class RunFolder:
 
     def save_figure(self, name: str, fig: Any, dpi: int = 150) -> Path:
         """Save a matplotlib figure (format from the file name) atomically, then close it if
-        pyplot manages it (so that writing many figures does not accumulate them)."""
+        pyplot manages it (so that writing many figures does not accumulate them). A figure
+        with a layout engine (constrained layout) is saved as laid out, in one draw; others
+        are cropped to their content (``bbox_inches="tight"``, a second draw)."""
         fmt = Path(name).suffix.lstrip(".") or "png"
+        bbox = None if fig.get_layout_engine() is not None else "tight"
         try:
             with atomic_open(self.file(name), "wb") as fh:
-                fig.savefig(fh, format=fmt, dpi=dpi, bbox_inches="tight")
+                fig.savefig(fh, format=fmt, dpi=dpi, bbox_inches=bbox)
         finally:
             plt = sys.modules.get("matplotlib.pyplot")
             if plt is not None and getattr(fig, "number", None) in plt.get_fignums():

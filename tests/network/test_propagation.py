@@ -99,3 +99,19 @@ def test_random_range_bound_exceeds_deterministic_range():
 
 def test_no_range_when_min_loss_exceeds_budget():
     assert max_range(RadioParameters(min_loss_db=200.0)) == 0.0
+
+
+@pytest.mark.parametrize("sigma, m", [(0.0, None), (4.0, None), (0.0, 1.0), (8.0, 0.7), (3.0, 5.0)])
+def test_random_margin_equals_scipy_stats_quantiles(sigma, m):
+    # The fading and shadowing margin uses scipy.special; scipy.stats' norm.isf and gamma.isf
+    # must give the same float, bit for bit.
+    from scipy import stats
+
+    from swarmgames.network.propagation import RANGE_TAIL_PROBABILITY, _random_margin_db
+
+    p = RANGE_TAIL_PROBABILITY
+    expected = sigma * float(stats.norm.isf(p)) if sigma > 0 else 0.0
+    if m is not None:
+        expected += 10.0 * np.log10(float(stats.gamma.isf(p, m, scale=1 / m)))
+    radio = RadioParameters(shadowing_sigma_db=sigma, nakagami_m=m)
+    assert _random_margin_db(radio) == expected

@@ -13,26 +13,33 @@ from swarmgames.sim.runner import build_mission
 
 
 @pytest.mark.parametrize("n", [20, 400])
-def test_frames_on_a_shared_background_equal_frames_drawn_afresh(n):
-    # The GIF draws the mission's background once and replaces only the swarm per frame;
-    # every frame must be the one a cleared axes gives, pixel for pixel.
+def test_blitted_frames_equal_a_full_redraw(n):
+    # A frame restores the background's pixels and draws only the swarm's artists over
+    # them; it must be the figure a full draw gives, pixel for pixel.
     mission = build_mission(resolve_scenario("coverage", [f"swarm.n_robots={n}"]))
     rng = np.random.default_rng(0)
     xy = [rng.uniform(-700, 700, size=(n, 2)) for _ in range(3)]
     edges = [np.sort(rng.integers(0, n, size=(2 * n, 2)), axis=1) for _ in range(3)]
-    alive, radio = np.ones(n, bool), rng.random(n) < 0.9
+    alive, radio = rng.random(n) < 0.95, rng.random(n) < 0.9
     lo, hi = anim._bounds(mission, np.stack(xy))
-    fresh, ax_fresh = anim._canvas()
-    shared, ax_shared = anim._canvas()
-    anim._draw_background(ax_shared, mission, lo, hi)
+    drawer = anim.FrameDrawer(mission, n, lo, hi)
+    moving = (*drawer.layers, drawer.clock)
     for k in range(3):
-        anim._draw(ax_fresh, mission, xy[k], edges[k], alive, radio, float(k), lo, hi)
-        artists = anim._draw_swarm(ax_shared, xy[k], edges[k], alive, radio, float(k), lo, hi)
-        fresh.draw()
-        shared.draw()
-        assert np.array_equal(np.asarray(fresh.buffer_rgba()), np.asarray(shared.buffer_rgba()))
-        for artist in artists:
-            artist.remove()
+        blitted = drawer.draw(xy[k], edges[k], alive, radio, float(k)).copy()
+        for artist in moving:
+            artist.set_animated(False)
+        drawer.canvas.draw()
+        full = np.asarray(drawer.canvas.buffer_rgba())[..., :3]
+        assert np.array_equal(blitted, full)
+        for artist in moving:
+            artist.set_animated(True)
+
+
+def test_draw_frame_is_an_rgb_image():
+    mission = build_mission(resolve_scenario("coverage", []))
+    xy = np.array([[0.0, 0.0], [100.0, 0.0], [0.0, 100.0]])
+    frame = anim.draw_frame(mission, xy, [[0, 1]], np.ones(3, bool), np.ones(3, bool), 3.0)
+    assert frame.dtype == np.uint8 and frame.shape[2] == 3 and frame.std() > 0
 
 
 def test_links_of_a_large_swarm_are_one_polyline_broken_by_nan():

@@ -61,6 +61,8 @@ def golden(case: str) -> Path:
     if not (folder / "trajectory.csv").is_file():
         pytest.skip(f"no golden recording of {case!r} for {vector_width()} CPUs")
     return folder
+
+
 QUICK = ["sim.animation=false", "comms.model='ideal'"]
 #: The coverage preset refines every local game's profile to a pure NE since these were
 #: recorded (game.refine = "best_response"): its cases pin Algorithm 1 alone, what they

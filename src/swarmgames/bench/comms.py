@@ -79,5 +79,6 @@ def channel_vs_ns3(trace: str = "static_40_dense", stages: int = 5, seed: int = 
         ns3_s=spent["ns3"] / stages,
         median_s=spent["csma"] / stages,
         ratio=spent["ns3"] / spent["csma"],
+        csma_per_ns3=spent["csma"] / spent["ns3"],
     )
     return rec

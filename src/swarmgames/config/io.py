@@ -234,6 +234,13 @@ def builtin_scenarios() -> list[str]:
     return sorted(f.name[:-5] for f in files if f.name.endswith(".toml"))
 
 
+def scenario_description(name: str) -> str:
+    """The one-line description of the built-in scenario ``name``: the first comment line of
+    its preset file."""
+    first = _builtin_text(name).splitlines()[0]
+    return first.removeprefix("#").strip() if first.startswith("#") else ""
+
+
 def _builtin_text(name: str) -> str:
     from importlib import resources
 

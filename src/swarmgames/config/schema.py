@@ -582,6 +582,33 @@ class SimConfig(_Section):
 NS3_RATE_MBPS = 6.0
 
 
+#: Fields of ``[comms]`` and the models under which they act: set to anything but their
+#: default under another model they would do nothing, so a grid over them would run the
+#: same run twice.
+_COMMS_FIELDS_OF = {
+    "loss_rate": ("routed", "csma"),
+    "loss_model": ("routed",),
+    "ge_good_to_bad": ("routed",),
+    "ge_bad_to_good": ("routed",),
+    "ge_loss_bad": ("routed",),
+    "hop_delay_s": ("routed",),
+    "jitter_s": ("csma", "ns3"),
+}
+
+
+def _check_comms_fields_act(comms: CommsConfig) -> None:
+    """Every ``[comms]`` field set away from its default acts under ``comms.model``."""
+    defaults = CommsConfig()
+    for name, models in _COMMS_FIELDS_OF.items():
+        value = getattr(comms, name)
+        if comms.model not in models and value != getattr(defaults, name):
+            raise ValueError(
+                f"comms.{name} has no effect with comms.model = {comms.model!r}: it must keep "
+                f"its default {getattr(defaults, name)!r} unless comms.model is "
+                f"{' or '.join(map(repr, models))} (got {value!r})"
+            )
+
+
 def _check_ns3_comms(comms: CommsConfig, network: NetworkConfig) -> None:
     """``comms.model = 'ns3'``: the packets need ns-3's nodes, and ns-3 decides the loss."""
     if network.backend != "ns3":
@@ -716,12 +743,7 @@ class ScenarioConfig(_Section):
             )
         if self.comms.model == "ns3":
             _check_ns3_comms(self.comms, self.network)
-        if self.comms.model == "csma" and self.comms.loss_model != "iid":
-            raise ValueError(
-                "comms.loss_model must be 'iid' with comms.model = 'csma', whose channel "
-                "decides when losses come in bursts (comms.loss_rate adds i.i.d. loss on top) "
-                f"(got {self.comms.loss_model!r})"
-            )
+        _check_comms_fields_act(self.comms)
         if sim.controller == "mpc" and sim.mpc_horizon > 1 and self.network.backend == "ns3":
             raise ValueError(
                 "sim.controller = 'mpc' predicts the network by snapshot and restore, which "

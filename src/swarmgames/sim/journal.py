@@ -267,9 +267,13 @@ class RunJournal:
         self.checkpoint_stage = self.stages
 
     # ------------------------------------------------------------------ the end
-    def finish(self, result, *, animation: bool, frames: int) -> list:
-        """Append the states after the last stage to the trajectory, write the figures, the
-        animation and the summary; a complete run drops its checkpoint."""
+    def finish(
+        self, result, *, animation: bool, frames: int, progress=None, figures: bool = True
+    ) -> list:
+        """Append the states after the last stage to the trajectory, write the figures (unless
+        ``figures`` is false), the animation and the summary (``progress(done, total)`` as
+        :meth:`~swarmgames.sim.result.RunResult.write_outputs` calls it); a complete run
+        drops its checkpoint."""
         interrupted = result.interrupted
         n = self.start.shape[0]
         self.tables["trajectory"].append(result.trajectory.iloc[-n:])  # after the last stage
@@ -277,7 +281,7 @@ class RunJournal:
             if self.tables[name].rows == 0:  # no stage completed: the columns alone
                 self.tables[name].append(frame.iloc[:0])
         self._close()
-        written = result.write_outputs(self.folder, animation, frames)
+        written = result.write_outputs(self.folder, animation, frames, progress, figures)
         if not interrupted:
             shutil.rmtree(self.folder.file(CHECKPOINT_DIR), ignore_errors=True)
             self.folder.written[:] = [

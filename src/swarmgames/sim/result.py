@@ -276,20 +276,35 @@ class RunResult:
         self.files = written + self.write_outputs(folder, animation, frames)
         return self.files
 
-    def write_outputs(self, folder, animation: bool = True, frames: int = 60) -> list:
+    def write_outputs(
+        self, folder, animation: bool = True, frames: int = 60, progress=None, figures=True
+    ) -> list:
         """Write what is made from the tables at the end: the PNGs, animation.gif and
-        summary.json (a run's journal has appended the tables stage by stage)."""
+        summary.json (a run's journal has appended the tables stage by stage).
+
+        ``progress``, if given, is called as ``progress(done, total)`` after each figure and
+        each frame of the animation (one unit each); ``figures=False`` writes the summary
+        alone (the runs of a sweep)."""
         from swarmgames.sim.animation import render_gif
 
+        def tick(done: int, total: int) -> None:
+            if progress is not None:
+                progress(done, total)
+
         written = []
-        if len(self.swarm):
+        if len(self.swarm) and figures:
+            total = 2 + (min(int(frames), len(self.swarm)) if animation else 0)
             fig = self.plot()
             written.append(folder.save_figure("timeseries.png", fig))
+            tick(1, total)
             fig = self.plot_paths()
             written.append(folder.save_figure("paths.png", fig))
+            tick(2, total)
             if animation:
                 cap = int(1e6 * self.config.sim.animation_max_mb)
-                gif = render_gif(self, frames, max_bytes=cap)
+                gif = render_gif(
+                    self, frames, max_bytes=cap, progress=lambda k, m: tick(2 + k, 2 + m)
+                )
                 written.append(folder.write_bytes("animation.gif", gif))
         written.append(folder.write_json("summary.json", self.summary))
         self.folder = folder

@@ -106,6 +106,7 @@ def run(
     force: bool = False,
     provider: Any = None,
     mission: Mission | None = None,
+    figures: bool = True,
 ) -> RunResult:
     """Run a mission and write its run folder.
 
@@ -130,6 +131,9 @@ def run(
     mission : Mission, optional
         A mission object to run (for example one written in a notebook; see
         ``docs/missions.md``) instead of the registered mission ``config.scenario`` names.
+    figures : bool, default True
+        Write ``timeseries.png``, ``paths.png`` and ``animation.gif`` (``sim.animation``);
+        false: the tables and the summary alone (what a sweep's runs write by default).
 
     Returns
     -------
@@ -174,7 +178,8 @@ def run(
                 out, config, loop, states, n_stages, mission=mission.name, custom=custom
             )
         log = _drive(loop, states, n_stages, config, progress, journal, [], 0.0)
-        return _finish(log, config, mission, time.perf_counter() - t0, journal)
+        wall_s = time.perf_counter() - t0
+        return _finish(log, config, mission, wall_s, journal, progress, figures)
 
 
 def _drive(loop, states, n_stages, config, progress, journal, records, wall_s) -> StageLog:
@@ -198,10 +203,21 @@ def _drive(loop, states, n_stages, config, progress, journal, records, wall_s) -
             raise
 
 
-def _finish(log, config, mission, wall_s: float, journal) -> RunResult:
+def _finish(
+    log, config, mission, wall_s: float, journal, progress: bool, figures: bool
+) -> RunResult:
+    """The run's result; with a run folder, its figures, animation and summary written under
+    a progress bar of their own."""
     result = RunResult.from_log(log, config, mission, wall_s)
     if journal is not None:
-        journal.finish(result, animation=config.sim.animation, frames=config.sim.animation_frames)
+        with ProgressBar(f"{config.name}: figures and animation", progress and figures) as tick:
+            journal.finish(
+                result,
+                animation=config.sim.animation,
+                frames=config.sim.animation_frames,
+                progress=tick,
+                figures=figures,
+            )
     return result
 
 
@@ -211,6 +227,7 @@ def resume(
     *,
     provider: Any = None,
     mission: Mission | None = None,
+    figures: bool = True,
 ) -> RunResult:
     """Continue an interrupted run from the last checkpoint of its folder.
 
@@ -227,6 +244,8 @@ def resume(
         Show a progress bar.
     provider, mission : optional
         The objects given to :func:`run`, if any (they cannot be rebuilt from the folder).
+    figures : bool, default True
+        Write the figures and the animation (as :func:`run`).
 
     Returns
     -------
@@ -278,7 +297,8 @@ def resume(
         log = _drive(
             loop, journal.start, n_stages, config, progress, journal, records, checkpoint.wall_s
         )
-        return _finish(log, config, mission, checkpoint.wall_s + time.perf_counter() - t0, journal)
+        wall_s = checkpoint.wall_s + time.perf_counter() - t0
+        return _finish(log, config, mission, wall_s, journal, progress, figures)
 
 
 def _rebuild(out, config, mission, manifest) -> None:

@@ -10,10 +10,12 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import pandas as pd
 import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 import swarmgames
 from swarmgames.config import parse_config
@@ -72,6 +74,7 @@ def test_a_sweep_writes_a_run_folder_per_run_and_its_tables(reference):
         "config.toml",
         "coverage_end_dbm.png",
         "paired.csv",
+        "paired_coverage_end_dbm.png",
         "results.csv",
         "runs",
         "sweep.json",
@@ -284,3 +287,37 @@ def test_a_run_folder_written_before_a_field_was_added_is_the_same_run(reference
     again = swarmgames.sweep(BASE, GRID, SEEDS, jobs=1, out=out)
     assert executed == []
     _same_numbers(again, res)
+
+
+def test_runs_of_a_sweep_write_no_figures_unless_asked(reference, tmp_path):
+    # A small run's figures and animation cost more than its stages: off by default, while
+    # the sweep's own figures stay.
+    out, res = reference
+    for row in res.itertuples():
+        names = {p.name for p in (out / row.folder).iterdir()}
+        assert "summary.json" in names and not names & {"timeseries.png", "paths.png"}
+    base = BASE.with_overrides({"sim.animation": True})
+    drawn = swarmgames.sweep(base, None, [0], jobs=1, out=tmp_path / "s", run_figures=True)
+    names = {p.name for p in (tmp_path / "s" / drawn.iloc[0]["folder"]).iterdir()}
+    assert {"timeseries.png", "paths.png", "animation.gif"} <= names
+
+
+def test_paired_differences_hold_outcomes_only_and_are_plotted(reference):
+    from swarmgames.experiments.sweep.plots import factor_label, plot_metric, plot_paired
+
+    out, res = reference
+    paired = pd.read_csv(out / "paired.csv")
+    metrics = set(paired["metric"])
+    assert "coverage_end_dbm" in metrics
+    assert not metrics & {"n_robots", "stages", "wall_s"}
+    assert not any(m.endswith("_ms") for m in metrics)
+    assert factor_label("swarm.n_robots") == "swarm.n_robots: Number of UAVs"
+    assert factor_label("coverage.no_such_field") == "coverage.no_such_field"
+    constant = res.assign(coverage_end_dbm=-93.2, median_global_regret=float("nan"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for metric in ("coverage_end_dbm", "median_global_regret"):
+            fig = plot_metric(constant, metric)
+            FigureCanvasAgg(fig).draw()
+            FigureCanvasAgg(plot_paired(paired_differences(constant), metric)).draw()
+    assert fig.axes[0].get_xlabel() == "swarm.n_robots: Number of UAVs"

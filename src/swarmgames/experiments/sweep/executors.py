@@ -60,12 +60,15 @@ class RunTask:
         Threads of the compiled kernels (Numba) while it runs: the executors give each run
         its share of the CPUs, so that runs side by side do not each start a thread per core.
         None: as they are.
+    figures : bool
+        Write the run's figures and animation (else its tables and summary alone).
     """
 
     folder: str
     config: ScenarioConfig
     resume: bool = False
     threads: int | None = None
+    figures: bool = True
 
 
 def default_jobs() -> int:
@@ -84,7 +87,7 @@ def _fresh(task: RunTask):
     from swarmgames.sim import run
 
     shutil.rmtree(task.folder, ignore_errors=True)
-    return run(task.config, out=task.folder, progress=False)
+    return run(task.config, out=task.folder, progress=False, figures=task.figures)
 
 
 def execute(task: RunTask) -> dict[str, Any]:
@@ -112,7 +115,7 @@ def execute(task: RunTask) -> dict[str, Any]:
         try:
             if task.resume:
                 try:
-                    result = resume(task.folder, progress=False)
+                    result = resume(task.folder, progress=False, figures=task.figures)
                 except (NotResumableError, RunFolderError):
                     result = _fresh(task)  # no usable checkpoint: run it again
             else:

@@ -150,8 +150,9 @@ def write_tables(
     zipped: bool = False,
     metrics: Sequence[str] | None = None,
 ) -> list[Path]:
-    """Write ``results.csv``, ``aggregate.csv``, ``paired.csv`` and one ``<metric>.png`` per
-    metric into ``folder``.
+    """Write ``results.csv``, ``aggregate.csv``, ``paired.csv``, one ``<metric>.png`` per
+    metric and, where a factor varies, one ``paired_<metric>.png`` per metric into
+    ``folder``.
 
     Parameters
     ----------
@@ -168,10 +169,11 @@ def write_tables(
     ConfigError
         A metric that is not a figure of the complete runs (the tables are written first).
     """
+    paired = paired_differences(results, zipped)
     written = [
         folder.write_csv("results.csv", results),
         folder.write_csv("aggregate.csv", aggregate(results)),
-        folder.write_csv("paired.csv", paired_differences(results, zipped)),
+        folder.write_csv("paired.csv", paired),
     ]
     figures = figure_columns(results) if (results["status"] == "complete").any() else []
     if metrics is None:
@@ -185,10 +187,13 @@ def write_tables(
             f"{', '.join(figures)}); the tables are written, and the same sweep with another "
             "--metric only redraws the plots"
         )
-    from swarmgames.experiments.sweep.plots import plot_metric
+    from swarmgames.experiments.sweep.plots import plot_metric, plot_paired
 
     for metric in metrics if figures else []:
         written.append(folder.save_figure(_plot_name(metric), plot_metric(results, metric)))
+        if (paired["metric"] == metric).any():
+            fig = plot_paired(paired, metric)
+            written.append(folder.save_figure(_plot_name(f"paired_{metric}"), fig))
     return written
 
 
@@ -218,6 +223,7 @@ def sweep(
     out: str | Path,
     progress: bool = False,
     metrics: Sequence[str] | None = None,
+    run_figures: bool = False,
 ) -> pd.DataFrame:
     """Run a scenario over a grid of overrides and seeds, one run folder per run, and write
     the results, their statistics and plots (module notes, docs/sweep.md).
@@ -249,6 +255,10 @@ def sweep(
     metrics : sequence of str, optional
         Summary figures to plot (default: ``coverage_end_dbm`` if the runs have it, else
         ``mean_payoff_end``).
+    run_figures : bool, default False
+        Also write each run's ``timeseries.png``, ``paths.png`` and ``animation.gif`` (they
+        cost more than the stages of a small run); the sweep's own figures are written
+        either way.
 
     Returns
     -------
@@ -307,7 +317,12 @@ def sweep(
     ]
     todo = [i for i, f in enumerate(found) if f.kind != "done"]
     tasks = [
-        RunTask(str(runs / plan.points[i].folder), plan.points[i].config, found[i].kind == "resume")
+        RunTask(
+            str(runs / plan.points[i].folder),
+            plan.points[i].config,
+            found[i].kind == "resume",
+            figures=run_figures,
+        )
         for i in todo
     ]
     from swarmgames.sim.progress import ProgressBar

@@ -36,6 +36,7 @@ __all__ = [
     "describe",
     "factor_columns",
     "figure_columns",
+    "outcome_columns",
     "paired_differences",
     "varied_factors",
 ]
@@ -46,6 +47,9 @@ META = ("seed", "status", "error", "folder")
 STAT_COLUMNS = ("metric", "n", "mean", "std", "ci_low", "ci_high")
 #: Summary entries that are not figures of the run.
 NOT_FIGURES = frozenset({"interrupted"})
+#: Figures that describe the run rather than measure its outcome (its size, its length, its
+#: wall times): aggregated, but not compared between levels in ``paired.csv``.
+NOT_OUTCOMES = frozenset({"n_robots", "stages", "wall_s"})
 #: Confidence level of the intervals.
 LEVEL = 0.95
 
@@ -83,9 +87,16 @@ def figure_columns(results: pd.DataFrame) -> list[str]:
     return [c for c in results.columns if c not in skip and done[c].dropna().map(_is_number).all()]
 
 
-def _complete(results: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
-    """The complete runs with their figures as floats, and the figures' names."""
-    figures = figure_columns(results)
+def outcome_columns(results: pd.DataFrame) -> list[str]:
+    """The figures that measure a run's outcome: :func:`figure_columns` without those that
+    describe the run (:data:`NOT_OUTCOMES`) or time it (``*_ms``)."""
+    return [c for c in figure_columns(results) if c not in NOT_OUTCOMES and not c.endswith("_ms")]
+
+
+def _complete(results: pd.DataFrame, figures: list[str] | None = None):
+    """The complete runs with their figures (default: all, :func:`figure_columns`) as
+    floats, and the figures' names."""
+    figures = figure_columns(results) if figures is None else figures
     done = results.loc[results["status"] == "complete", [*factor_columns(results), "seed"]]
     values = results.loc[done.index, figures].astype(float)
     return pd.concat([done, values], axis=1), figures
@@ -183,13 +194,14 @@ def paired_differences(results: pd.DataFrame, zipped: bool = False) -> pd.DataFr
         ``factor`` (its path, or the zipped paths joined by ``" + "``), ``baseline`` (its
         first level), the varied factor columns (the level compared and the other factors'
         fixed levels), then ``metric``, ``n``, ``mean``, ``std``, ``ci_low``, ``ci_high`` of
-        the differences. No rows when no factor varies.
+        the differences, for the outcome figures (:func:`outcome_columns`). No rows when no
+        factor varies.
     """
     varied = varied_factors(results)
     columns = ["factor", "baseline", *varied, *STAT_COLUMNS]
     if not varied:
         return pd.DataFrame(columns=columns)
-    done, figures = _complete(results)
+    done, figures = _complete(results, outcome_columns(results))
     first = results.iloc[0]
     frames = []
     for factor in [varied] if zipped else [[c] for c in varied]:
