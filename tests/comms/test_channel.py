@@ -60,7 +60,9 @@ def test_a_single_link_without_other_traffic_delivers_what_routed_delivers():
     for name in ("messages_sent", "messages_forwarded", "messages_received", "bytes_received"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
     for model in (csma, routed):
-        assert sorted(zip(model.table.owner.tolist(), model.table.sender.tolist())) == [
+        assert sorted(
+            zip(model.table.owner.tolist(), model.table.sender.tolist(), strict=False)
+        ) == [
             (0, 1),
             (1, 0),
         ]
@@ -85,7 +87,7 @@ def test_two_hidden_terminals_sending_at_one_instant_lose_both_frames_at_the_mid
     air = ofdm_airtime_s(np.full(3, 75))
     res = simulate(indptr, heard, power, link, ready, air, np.full(3, 75), ttl=1,
                    jitter_s=0.0, seed=7)  # fmt: skip
-    got = set(zip(res.receiver.tolist(), res.sender.tolist()))
+    got = set(zip(res.receiver.tolist(), res.sender.tolist(), strict=False))
     assert (1, 0) not in got and (1, 2) not in got
     assert {(0, 1), (2, 1)} <= got  # robot 1's own frame, alone on the air, reaches both
     assert res.collided == 1  # 1 locked onto one of them, and the other drowned it
@@ -105,7 +107,7 @@ def test_robots_that_hear_each_other_collide_only_when_they_draw_the_same_slot()
         ready = np.array([0.0, 50e-6, 50e-6, 50e-6])
         res = simulate(indptr, heard, power, link, ready, air, np.full(4, 75), ttl=1,
                        jitter_s=0.0, seed=seed)  # fmt: skip
-        got = {(r, s) for r, s in zip(res.receiver.tolist(), res.sender.tolist())}
+        got = {(r, s) for r, s in zip(res.receiver.tolist(), res.sender.tolist(), strict=False)}
         missing = [(r, s) for r in range(4) for s in range(4) if r != s and (r, s) not in got]
         if res.collided == 0:
             assert missing == []

@@ -62,9 +62,8 @@ def test_delivery_by_hop_is_within_the_tolerance_of_ns3s_median(trace):
     ns3 = _ns3(trace).groupby("hops")["ratio"].median()
     for hops, tol in TOLERANCE.items():
         gap = 100 * abs(ours[hops] - ns3[hops])
-        assert gap <= tol, (
-            f"{trace}, {hops} hop(s): {100 * ours[hops]:.1f} % against ns-3's {100 * ns3[hops]:.1f} %"
-        )
+        want = f"ns-3's {100 * ns3[hops]:.1f} %"
+        assert gap <= tol, f"{trace}, {hops} hop(s): {100 * ours[hops]:.1f} % against {want}"
 
 
 @pytest.mark.parametrize("trace", TRACES)

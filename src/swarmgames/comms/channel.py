@@ -8,16 +8,16 @@ frame — is simulated on one channel, event by event (:func:`simulate`):
   time for a relay (as the ``ns3`` model and OLSR do, RFC 3626 section 3.5). A control frame
   is ready at its given time.
 * **Carrier sense and DCF** (IEEE 802.11-2016 10.3; ns-3's ``ChannelAccessManager``). A node
-  senses the medium busy while the frames on the air reach it with at least ``cca_dbm``
-  (-82 dBm, ns-3's ``CcaSensitivity``) together, or while it transmits. A frame that becomes ready at an
-  idle MAC whose medium has been idle for DIFS (34 µs) and whose backoff has run out goes at
+  senses the medium busy while the frames on the air reach it with at least ``cca_dbm`` (-82
+  dBm, ns-3's ``CcaSensitivity``) together, or while it transmits. A frame that becomes ready at
+  an idle MAC whose medium has been idle for DIFS (34 µs) and whose backoff has run out goes at
   once; otherwise the node draws a backoff of ``U{0..15}`` slots of 9 µs where none is left
   (ns-3's ``NeedBackoffUponAccess``) and counts it down while the medium is idle, DIFS after
   each busy period, frozen while busy. After each transmission it draws a new backoff
-  (post-backoff), so a node's next frame, a relay say, waits behind it. Broadcasts have no
-  ACK and no retry. Two nodes whose countdowns end within the clear-channel assessment time
-  (4 µs) of each other both transmit: robots that hear each other collide only when they end
-  their backoffs in the same slot.
+  (post-backoff), so a node's next frame, a relay say, waits behind it. Broadcasts have no ACK and no
+  retry. Two nodes whose countdowns end within the clear-channel assessment time (4 µs) of each
+  other both transmit: robots that hear each other collide only when they end their backoffs in
+  the same slot.
 * **Airtime** at the PHY rate: the 20 µs preamble and SIGNAL field, then the 16 SERVICE bits,
   the frame and the 6 tail bits in whole OFDM symbols of 4 µs
   (:func:`~swarmgames.comms.wire.ofdm_airtime_s`).
@@ -34,9 +34,9 @@ frame — is simulated on one channel, event by event (:func:`simulate`):
   reception at depth d < ``ttl`` it relays the message once.
 
 The simulation runs until the channel is quiet, so a message may arrive after the decision;
-the caller decides what counts. Random draws (jitter, backoffs, configured loss) come from a counter-based
-generator (SplitMix64) keyed by one 64-bit seed that the caller draws from the run's numpy
-Generator: the result depends on the seed alone, never on threads.
+the caller decides what counts. Random draws (jitter, backoffs, configured loss) come from a
+counter-based generator (SplitMix64) keyed by one 64-bit seed that the caller draws from the
+run's numpy Generator: the result depends on the seed alone, never on threads.
 """
 
 from __future__ import annotations

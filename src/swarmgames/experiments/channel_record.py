@@ -129,11 +129,11 @@ def record(name: str, out: Path, runs: tuple[int, ...] | None = None) -> Path:
     with tempfile.TemporaryDirectory() as tmp:
         for run in runs:
             part = Path(tmp) / f"run{run}"
+            child = ["--out", str(part), "--only", name, "--run", str(run), "--one"]
             done = subprocess.run(
-                [sys.executable, "-m", "swarmgames.experiments.channel_record", "--out", str(part), "--only", name,
-                 "--run", str(run), "--one"],
+                [sys.executable, "-m", "swarmgames.experiments.channel_record", *child],
                 check=False,
-            )  # fmt: skip
+            )
             if done.returncode != 0:
                 failed.append({"run": run, "exit_code": done.returncode})
                 print(f"{name} run {run}: ns-3 failed (exit {done.returncode})", file=sys.stderr)
