@@ -15,9 +15,9 @@ frame — is simulated on one channel, event by event (:func:`simulate`):
   (ns-3's ``NeedBackoffUponAccess``) and counts it down while the medium is idle, DIFS after
   each busy period, frozen while busy. After each transmission it draws a new backoff
   (post-backoff), so a node's next frame, a relay say, waits behind it. Broadcasts have no ACK
-  and no retry. Two nodes whose countdowns end within the clear-channel assessment time (4 µs) of each
-  other both transmit: robots that hear each other collide only when they end their backoffs in
-  the same slot.
+  and no retry. Two nodes whose countdowns end within the clear-channel assessment time (4 µs)
+  of each other both transmit: robots that hear each other collide only when they end their
+  backoffs in the same slot.
 * **Airtime** at the PHY rate: the 20 µs preamble and SIGNAL field, then the 16 SERVICE bits,
   the frame and the 6 tail bits in whole OFDM symbols of 4 µs
   (:func:`~swarmgames.comms.wire.ofdm_airtime_s`).
