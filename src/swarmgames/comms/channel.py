@@ -152,6 +152,16 @@ def _grow(arr, size):
     return out
 
 
+@njit(cache=True, inline="always")
+def _earlier(et, ev, a, b):
+    """Whether heap entry ``a`` runs before ``b``: by time, then kind, then sequence."""
+    if et[a] != et[b]:
+        return et[a] < et[b]
+    if ev[a, 0] != ev[b, 0]:
+        return ev[a, 0] < ev[b, 0]
+    return ev[a, 1] < ev[b, 1]
+
+
 @njit(cache=True)
 def _push(ev, et, ne, seq, t, kind, arg, ver):
     """Add an event to the heap (``et`` its times; ``ev`` rows of kind, sequence, argument
@@ -166,10 +176,7 @@ def _push(ev, et, ne, seq, t, kind, arg, ver):
     j = ne
     while j > 0:
         p = (j - 1) // 2
-        if et[j] < et[p] or (
-            et[j] == et[p]
-            and (ev[j, 0] < ev[p, 0] or (ev[j, 0] == ev[p, 0] and ev[j, 1] < ev[p, 1]))
-        ):
+        if _earlier(et, ev, j, p):
             et[j], et[p] = et[p], et[j]
             for c in range(4):
                 ev[j, c], ev[p, c] = ev[p, c], ev[j, c]
@@ -192,21 +199,9 @@ def _pop(ev, et, ne):
         a = 2 * j + 1
         if a >= last:
             break
-        if a + 1 < last and (
-            et[a + 1] < et[a]
-            or (
-                et[a + 1] == et[a]
-                and (
-                    ev[a + 1, 0] < ev[a, 0]
-                    or (ev[a + 1, 0] == ev[a, 0] and ev[a + 1, 1] < ev[a, 1])
-                )
-            )
-        ):
+        if a + 1 < last and _earlier(et, ev, a + 1, a):
             a += 1
-        if et[a] < et[j] or (
-            et[a] == et[j]
-            and (ev[a, 0] < ev[j, 0] or (ev[a, 0] == ev[j, 0] and ev[a, 1] < ev[j, 1]))
-        ):
+        if _earlier(et, ev, a, j):
             et[j], et[a] = et[a], et[j]
             for c in range(4):
                 ev[j, c], ev[a, c] = ev[a, c], ev[j, c]

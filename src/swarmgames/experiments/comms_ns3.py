@@ -35,6 +35,7 @@ from matplotlib.figure import Figure
 from swarmgames.comms import RoutedComms
 from swarmgames.comms.ns3_comms import Ns3Comms
 from swarmgames.errors import ConfigError
+from swarmgames.experiments.comms_replay import delivered_age
 from swarmgames.network.ns3_backend import Ns3Provider
 from swarmgames.network.ns3_olsr_traffic import Ns3OlsrTraffic
 from swarmgames.network.olsr.provider import OlsrProvider
@@ -148,23 +149,6 @@ def _member_rows(snapshot, hops: int) -> tuple[np.ndarray, np.ndarray, np.ndarra
     )
 
 
-def _delivered_age(table, t: float, sender, member, decide: float) -> np.ndarray:
-    """Age on arrival of s's message of time ``t`` at each member (NaN: not held by
-    ``decide``)."""
-    now = (table.stamp == t) & (table.arrival <= decide + 1e-12)
-    key = table.owner[now] * table.n_robots + table.sender[now]
-    arrival = table.arrival[now]
-    want = member * table.n_robots + sender
-    age = np.full(want.size, np.nan)
-    if key.size == 0:
-        return age
-    order = np.argsort(key)
-    pos = np.minimum(np.searchsorted(key[order], want), key.size - 1)
-    found = key[order][pos] == want
-    age[found] = arrival[order][pos[found]] - t
-    return age
-
-
 def compare_delivery(
     traces: Sequence[str] = DEFAULT_TRACES,
     runs: Sequence[int] = (1, 2, 3),
@@ -231,7 +215,7 @@ def compare_delivery(
                 for model, comms in models.items():
                     _, stats = comms.exchange(float(t), snap, pos, rng)
                     sums[model]["bytes"] += float(np.mean(stats.bytes_sent + stats.bytes_forwarded))
-                    age = _delivered_age(
+                    age = delivered_age(
                         comms.table, float(t), sender, member, float(t) + decide_after_s
                     )
                     for d in np.unique(dist):

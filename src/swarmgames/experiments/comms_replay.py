@@ -26,6 +26,7 @@ __all__ = [
     "DELIVERY_COLUMNS",
     "CommsReplay",
     "DeliveryCounter",
+    "delivered_age",
     "replay_comms",
     "replay_delivery",
     "replay_recording",
@@ -35,7 +36,7 @@ __all__ = [
 DELIVERY_COLUMNS = ("hops", "pairs", "delivered", "ratio", "mean_age_ms")
 
 
-def _delivered_age(table, t: float, sender, member, decide: float) -> np.ndarray:
+def delivered_age(table, t: float, sender, member, decide: float) -> np.ndarray:
     """Age on arrival of s's message of time ``t`` at each member (NaN: not held by
     ``decide``)."""
     now = (table.stamp == t) & (table.arrival <= decide + 1e-12)
@@ -76,7 +77,7 @@ class DeliveryCounter:
         sender = np.asarray(snapshot.owner, dtype=np.int64)[keep]
         member = np.asarray(snapshot.dest, dtype=np.int64)[keep]
         dist = dist[keep]
-        age = _delivered_age(table, t, sender, member, t + self.decide_after_s)
+        age = delivered_age(table, t, sender, member, t + self.decide_after_s)
         ok = np.isfinite(age)
         pairs = np.bincount(dist, minlength=self.hops + 1)
         got = np.bincount(dist[ok], minlength=self.hops + 1)
