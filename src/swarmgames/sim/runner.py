@@ -161,20 +161,26 @@ def run(
     # SIGTERM and SIGHUP (kill, timeout, schedulers, a closed terminal) stop the run like
     # Ctrl-C: the completed stages are kept and written.
     with signals_interrupt():
-        if out is not None and not isinstance(out, RunFolder):
+        opened = out is not None and not isinstance(out, RunFolder)
+        if opened:
             out = RunFolder(Path(out), force=force)
-        t0 = time.perf_counter()
-        states, loop, n_stages = build_loop(config, mission, provider)
-        loop.start(states)
-        journal = None
-        if out is not None:
-            from swarmgames.sim.journal import RunJournal
+        try:
+            t0 = time.perf_counter()
+            states, loop, n_stages = build_loop(config, mission, provider)
+            loop.start(states)
+            journal = None
+            if out is not None:
+                from swarmgames.sim.journal import RunJournal
 
-            journal = RunJournal.begin(
-                out, config, loop, states, n_stages, mission=mission.name, custom=custom
-            )
-        log = _drive(loop, states, n_stages, config, progress, journal, [], 0.0)
-        return _finish(log, config, mission, time.perf_counter() - t0, journal)
+                journal = RunJournal.begin(
+                    out, config, loop, states, n_stages, mission=mission.name, custom=custom
+                )
+            log = _drive(loop, states, n_stages, config, progress, journal, [], 0.0)
+            return _finish(log, config, mission, time.perf_counter() - t0, journal)
+        finally:
+            if opened:
+                out.discard_if_empty()  # a run that failed before its first stage
+                out.close()
 
 
 def _drive(loop, states, n_stages, config, progress, journal, records, wall_s) -> StageLog:
@@ -199,9 +205,16 @@ def _drive(loop, states, n_stages, config, progress, journal, records, wall_s) -
 
 
 def _finish(log, config, mission, wall_s: float, journal) -> RunResult:
-    result = RunResult.from_log(log, config, mission, wall_s)
-    if journal is not None:
-        journal.finish(result, animation=config.sim.animation, frames=config.sim.animation_frames)
+    try:
+        result = RunResult.from_log(log, config, mission, wall_s)
+        if journal is not None:
+            journal.finish(
+                result, animation=config.sim.animation, frames=config.sim.animation_frames
+            )
+    except BaseException as exc:  # the manifest never says "running" once we stop
+        if journal is not None:
+            journal.fail(exc)
+        raise
     return result
 
 
@@ -244,7 +257,7 @@ def resume(
     """
     from swarmgames.config import load_config
     from swarmgames.runfolder import RunFolder
-    from swarmgames.sim.journal import RunJournal, read_checkpoint, read_manifest
+    from swarmgames.sim.journal import RunJournal, read_checkpoint, read_manifest, verify_run
 
     path = folder.path if isinstance(folder, RunFolder) else Path(folder)
     manifest = read_manifest(path)
@@ -264,21 +277,33 @@ def resume(
             f"({manifest['custom_provider']!r}); resume it from Python with "
             "swarmgames.resume(folder, provider=...)"
         )
-    config = load_config(path / "config.toml")
-    mission = _check_mission(config, mission)
     with signals_interrupt():
-        out = RunFolder.of(folder, force=True)
-        checkpoint = read_checkpoint(out, manifest)
-        if checkpoint is None:
-            _rebuild(out, config, mission, manifest)
-        _, loop, n_stages = build_loop(config, mission, provider)
-        loop.restore(checkpoint.loop)
-        journal, records = RunJournal.reopen(out, checkpoint, manifest)
-        t0 = time.perf_counter()
-        log = _drive(
-            loop, journal.start, n_stages, config, progress, journal, records, checkpoint.wall_s
-        )
-        return _finish(log, config, mission, checkpoint.wall_s + time.perf_counter() - t0, journal)
+        opened = not isinstance(folder, RunFolder)
+        out = RunFolder.of(folder, force=True)  # the folder's lock, before anything is read
+        try:
+            manifest = verify_run(path)
+            config = load_config(path / "config.toml")
+            mission = _check_mission(config, mission)
+            checkpoint = read_checkpoint(out, manifest)
+            if checkpoint is None:
+                _rebuild(out, config, mission, manifest)
+            _, loop, n_stages = build_loop(config, mission, provider)
+            try:
+                loop.restore(checkpoint.loop)
+            except (ValueError, TypeError, KeyError, AttributeError) as exc:
+                raise RunFolderError(
+                    f"the checkpoint in {path} does not fit its run: {str(exc)[:200]}"
+                ) from None
+            journal, records = RunJournal.reopen(out, checkpoint, manifest)
+            t0 = time.perf_counter()
+            log = _drive(
+                loop, journal.start, n_stages, config, progress, journal, records, checkpoint.wall_s
+            )
+            wall_s = checkpoint.wall_s + time.perf_counter() - t0
+            return _finish(log, config, mission, wall_s, journal)
+        finally:
+            if opened:
+                out.close()
 
 
 def _rebuild(out, config, mission, manifest) -> None:
@@ -286,7 +311,7 @@ def _rebuild(out, config, mission, manifest) -> None:
     records, then raise :class:`NotResumableError`."""
     from swarmgames.sim.journal import read_records
 
-    start, records, period = read_records(out)
+    start, records, period = read_records(out, manifest)
     log = StageLog.from_records(
         start,
         records,

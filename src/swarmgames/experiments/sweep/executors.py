@@ -76,8 +76,10 @@ def default_jobs() -> int:
         return os.cpu_count() or 1
 
 
-def _outcome(status: str, error: str = "", summary: dict | None = None) -> dict[str, Any]:
-    return {"status": status, "error": error, "summary": dict(summary or {})}
+def _outcome(
+    status: str, error: str = "", summary: dict | None = None, note: str = ""
+) -> dict[str, Any]:
+    return {"status": status, "error": error, "summary": dict(summary or {}), "note": note}
 
 
 def _fresh(task: RunTask):
@@ -97,8 +99,9 @@ def execute(task: RunTask) -> dict[str, Any]:
     -------
     dict
         ``status`` (``"complete"``, ``"failed"`` or ``"interrupted"``), ``error`` (``"Type:
-        message"`` of a failed run, else ``""``) and ``summary`` (the run's ``summary.json``;
-        empty unless complete or interrupted).
+        message"`` of a failed run, else ``""``), ``summary`` (the run's ``summary.json``;
+        empty unless complete or interrupted) and ``note`` (why a run to continue was run
+        from scratch, else ``""``).
     """
     from swarmgames.sim import NotResumableError, resume
 
@@ -109,11 +112,13 @@ def execute(task: RunTask) -> dict[str, Any]:
     with signals_interrupt():
         if _STOP is not None and _STOP.is_set():
             return _outcome("interrupted")
+        note = ""
         try:
             if task.resume:
                 try:
                     result = resume(task.folder, progress=False)
-                except (NotResumableError, RunFolderError):
+                except (NotResumableError, RunFolderError) as exc:
+                    note = f"run again: {exc}"[:300]
                     result = _fresh(task)  # no usable checkpoint: run it again
             else:
                 result = _fresh(task)
@@ -123,7 +128,8 @@ def execute(task: RunTask) -> dict[str, Any]:
             with contextlib.suppress(OSError):
                 Path(task.folder).rmdir()  # a run that failed before its first stage
             return _outcome("failed", f"{type(exc).__name__}: {exc}")
-    return _outcome("interrupted" if result.interrupted else "complete", summary=result.summary)
+    status = "interrupted" if result.interrupted else "complete"
+    return _outcome(status, summary=result.summary, note=note)
 
 
 def import_ray():
