@@ -290,6 +290,7 @@ class RunFolder:
     def __init__(self, path: str | Path, force: bool = False) -> None:
         self.path = Path(path)
         self._lock = -1
+        self._held = False  # whether this object ever held the lock
         if self.path.exists() and not self.path.is_dir():
             raise RunFolderError(f"output path {self.path} exists and is not a folder")
         self.created = [p for p in (*reversed(self.path.parents), self.path) if not p.exists()]
@@ -332,13 +333,17 @@ class RunFolder:
             raise
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
-        self._lock = fd
+        self._lock, self._held = fd, True
 
     def close(self) -> None:
-        """Release the folder's lock (idempotent); the process's end releases it too."""
+        """Release the folder's lock (idempotent); :func:`swarmgames.run` releases it at
+        the end of the run, and the object's collection or the process's end does too."""
         if self._lock >= 0:
             os.close(self._lock)
             self._lock = -1
+
+    def __del__(self) -> None:
+        self.close()
 
     def __enter__(self) -> RunFolder:
         return self
@@ -357,7 +362,7 @@ class RunFolder:
         """Remove the folders this RunFolder created, innermost first, as far as they are
         empty (a run that failed before writing leaves no trace; the lock is released). A
         folder that existed before is never removed."""
-        if self.created and self._lock >= 0:
+        if self.created and self._held:
             with contextlib.suppress(OSError):
                 if all(p.name == LOCK_FILE for p in self.path.iterdir()):
                     (self.path / LOCK_FILE).unlink()

@@ -178,9 +178,10 @@ def run(
             log = _drive(loop, states, n_stages, config, progress, journal, [], 0.0)
             return _finish(log, config, mission, time.perf_counter() - t0, journal)
         finally:
-            if opened:
-                out.discard_if_empty()  # a run that failed before its first stage
-                out.close()
+            if out is not None:
+                if opened:
+                    out.discard_if_empty()  # a run that failed before its first stage
+                out.close()  # the folder's lock: the run's writing is over
 
 
 def _drive(loop, states, n_stages, config, progress, journal, records, wall_s) -> StageLog:
@@ -278,7 +279,6 @@ def resume(
             "swarmgames.resume(folder, provider=...)"
         )
     with signals_interrupt():
-        opened = not isinstance(folder, RunFolder)
         out = RunFolder.of(folder, force=True)  # the folder's lock, before anything is read
         try:
             manifest = verify_run(path)
@@ -302,8 +302,7 @@ def resume(
             wall_s = checkpoint.wall_s + time.perf_counter() - t0
             return _finish(log, config, mission, wall_s, journal)
         finally:
-            if opened:
-                out.close()
+            out.close()  # the folder's lock: the run's writing is over
 
 
 def _rebuild(out, config, mission, manifest) -> None:
