@@ -1,6 +1,7 @@
 """Data-only storage of a run's state (swarmgames.sim.datafile): exact round trips, and
 nothing but data read back."""
 
+import io
 import json
 
 import numpy as np
@@ -96,20 +97,31 @@ def test_values_keep_their_type_and_bits(value):
     _same({"v": value}, loads(dumps({"v": value})))
 
 
+def _archive(tree, arrays=None, data=b""):
+    """An archive of :func:`dumps`'s layout with the given content."""
+    head = json.dumps({"tree": tree, "arrays": arrays or {}}).encode()
+    buf = io.BytesIO()
+    np.savez(
+        buf,
+        tree=np.frombuffer(head, dtype=np.uint8),
+        data=np.frombuffer(data, dtype=np.uint8),
+    )
+    return buf.getvalue()
+
+
 def test_objects_that_are_not_data_are_refused_both_ways():
     with pytest.raises(TypeError, match="cannot be stored"):
         dumps({"f": len})
     with pytest.raises(TypeError, match="Python objects"):
         dumps(np.array([object()], dtype=object))
-    import io
-
-    buf = io.BytesIO()
-    tree = json.dumps({"$object": "Popen", "fields": {}}).encode()
-    np.savez(buf, tree=np.frombuffer(tree, dtype=np.uint8))
     with pytest.raises(ValueError, match="class that is not stored"):
-        loads(buf.getvalue())
+        loads(_archive({"$object": "Popen", "fields": {}}))
+    with pytest.raises(ValueError, match=r"has dtype '\|O'"):
+        loads(_archive({"$array": "a0"}, {"a0": ["|O", [1], 0, 8]}, b"\0" * 8))
+    with pytest.raises(ValueError, match="does not fit the data"):
+        loads(_archive({"$array": "a0"}, {"a0": ["<f8", [4], 0, 32]}, b"\0" * 8))
     buf = io.BytesIO()
-    np.savez(buf, tree=np.frombuffer(b"{}", dtype=np.uint8), a0=np.array([None], dtype=object))
+    np.savez(buf, tree=np.frombuffer(b"{}", dtype=np.uint8), data=np.array([None], dtype=object))
     with pytest.raises(ValueError, match="not a swarmgames data file"):
         loads(buf.getvalue())
     with pytest.raises(ValueError, match="not a swarmgames data file"):

@@ -2,11 +2,13 @@
 
 A checkpoint (:class:`~swarmgames.sim.loop.LoopState` and the provider's, the communication
 model's and the random generators' states) and every stage record
-(:class:`~swarmgames.sim.loop.StageRecord`) are stored as one ``.npz`` archive each: the
-member ``tree`` holds the structure as UTF-8 JSON, every array is a member of its own, read
-back with ``numpy.load(..., allow_pickle=False)``. Reading one never runs code from it: the
-JSON names at most a class of :data:`CLASSES`, built from its stored fields, and arrays of
-Python objects are refused both ways.
+(:class:`~swarmgames.sim.loop.StageRecord`) are stored as one ``.npz`` archive each, read
+back with ``numpy.load(..., allow_pickle=False)``: the member ``tree`` holds the structure as
+UTF-8 JSON, with the dtype, shape and place of every array, and the member ``data`` the
+arrays' bytes one after the other (one member for all of them: an archive of a checkpoint
+holds hundreds of small arrays, and a member each would cost ten times more to write).
+Reading one never runs code from it: the JSON names at most a class of :data:`CLASSES`,
+built from its stored fields, and only dtypes of numbers, booleans and strings are read.
 
 The JSON tree has the plain JSON values for ``None``, ``bool``, ``int``, ``float`` (``NaN`` and
 ``Infinity`` as Python's :mod:`json` writes them) and ``str``, and one-key objects for the rest:
@@ -99,10 +101,45 @@ def dumps(obj: Any) -> bytes:
         ``obj`` holds a value of a type that cannot be stored.
     """
     arrays: dict[str, np.ndarray] = {}
-    tree = json.dumps(_encode(obj, arrays), separators=(",", ":")).encode("utf-8")
+    tree = _encode(obj, arrays)
+    index, chunks, at = {}, [], 0
+    for key, arr in arrays.items():
+        raw = np.ascontiguousarray(arr).tobytes()
+        index[key] = [arr.dtype.str, list(arr.shape), at, len(raw)]
+        chunks.append(raw)
+        at += len(raw)
+    head = json.dumps({"tree": tree, "arrays": index}, separators=(",", ":")).encode("utf-8")
     buf = io.BytesIO()
-    np.savez(buf, tree=np.frombuffer(tree, dtype=np.uint8), **arrays)
+    np.savez(
+        buf,
+        tree=np.frombuffer(head, dtype=np.uint8),
+        data=np.frombuffer(b"".join(chunks), dtype=np.uint8),
+    )
     return buf.getvalue()
+
+
+#: Kinds of dtype an archive may hold: booleans, integers, floats, complex, strings.
+_KINDS = frozenset("biufcUS")
+
+
+def _arrays(index: Any, data: np.ndarray) -> dict[str, np.ndarray]:
+    """The arrays ``index`` places in ``data`` (copies: the loop writes into some)."""
+    if not isinstance(index, dict):
+        raise _Malformed("no array index")
+    arrays = {}
+    for key, entry in index.items():
+        if not (isinstance(entry, list) and len(entry) == 4 and isinstance(entry[0], str)):
+            raise _Malformed(f"a bad entry for array {key!r}")
+        descr, shape, at, size = entry
+        dtype = np.dtype(descr)
+        if dtype.kind not in _KINDS or dtype.hasobject or dtype.fields is not None:
+            raise _Malformed(f"array {key!r} has dtype {descr!r}")
+        count = int(np.prod(shape, dtype=np.int64)) if shape else 1
+        if count < 0 or count * dtype.itemsize != size or not 0 <= at <= data.size - size:
+            raise _Malformed(f"array {key!r} does not fit the data")
+        flat = np.frombuffer(data, dtype=dtype, count=count, offset=at)
+        arrays[key] = flat.reshape(shape).copy()
+    return arrays
 
 
 class _Malformed(ValueError):
@@ -151,9 +188,13 @@ def loads(data: bytes) -> Any:
     """
     try:
         with np.load(io.BytesIO(data), allow_pickle=False) as archive:
-            arrays = {k: archive[k] for k in archive.files}
-        tree = json.loads(arrays.pop("tree").tobytes().decode("utf-8"))
-        return _decode(tree, arrays)
+            head, raw = archive["tree"], archive["data"]
+        if head.dtype != np.uint8 or raw.dtype != np.uint8 or head.ndim != 1 or raw.ndim != 1:
+            raise _Malformed("members of another kind")
+        meta = json.loads(head.tobytes().decode("utf-8"))
+        if not isinstance(meta, dict) or set(meta) != {"tree", "arrays"}:
+            raise _Malformed("no tree")
+        return _decode(meta["tree"], _arrays(meta["arrays"], raw))
     except (
         ValueError,
         TypeError,
