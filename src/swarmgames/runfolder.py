@@ -275,9 +275,10 @@ class RunFolder:
     Raises
     ------
     RunFolderError
-        If ``path`` exists, is not empty (temporary files left by a killed write do not count)
-        and ``force`` is false; is not a folder; or cannot be created or written into (below
-        a file, read-only, no permission).
+        If ``path`` exists, is not empty (temporary files left by a killed write and the lock
+        file do not count) and ``force`` is false; is not a folder; cannot be created or
+        written into (below a file, read-only, no permission); or another process holds its
+        lock (the message gives that process's id).
 
     Examples
     --------

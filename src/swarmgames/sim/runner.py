@@ -140,6 +140,9 @@ def run(
 
     Raises
     ------
+    RunFolderError
+        ``out`` cannot be used: not empty without ``force``, or being written by another
+        process (:class:`~swarmgames.runfolder.RunFolder` holds its lock for the run).
     ConfigError
         An invalid configuration (the message names the field, the rule and the value); a
         :class:`~swarmgames.sim.memory.MemoryLimitError` when the run's estimated peak memory
