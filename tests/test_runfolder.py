@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from swarmgames.errors import RunFolderError
-from swarmgames.runfolder import RunFolder, atomic_open, atomic_write_text
+from swarmgames.runfolder import LOCK_FILE, RunFolder, atomic_open, atomic_write_text
 
 
 def test_interrupted_write_leaves_no_partial_file(tmp_path):
@@ -93,7 +93,8 @@ def test_leftover_temporary_file_does_not_block_a_rerun(tmp_path):
     leftover = tmp_path / ".trajectory.csv.k3j9x2ab.tmp"
     leftover.write_text("t,x\n0,")
     RunFolder(tmp_path).write_text("a.txt", "a")  # counts as empty
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt"]  # and is cleaned up
+    names = sorted(p.name for p in tmp_path.iterdir() if p.name != LOCK_FILE)
+    assert names == ["a.txt"]  # and is cleaned up
 
 
 def test_leftover_is_removed_when_reused_with_force(tmp_path):
@@ -102,7 +103,7 @@ def test_leftover_is_removed_when_reused_with_force(tmp_path):
     with pytest.raises(RunFolderError, match="not empty"):
         RunFolder(tmp_path)
     RunFolder(tmp_path, force=True)
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.txt"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [LOCK_FILE, "old.txt"]
 
 
 def test_an_ordinary_hidden_file_still_counts(tmp_path):
@@ -196,7 +197,7 @@ def test_a_failed_write_is_one_error_naming_the_file_and_leaves_nothing(tmp_path
     folder = RunFolder(tmp_path / "run")
     with pytest.raises(OutputWriteError, match=r"cannot write .*a\.txt: No space left on device"):
         folder.write_text("a.txt", "hello")
-    assert list((tmp_path / "run").iterdir()) == []
+    assert [p.name for p in (tmp_path / "run").iterdir()] == [LOCK_FILE]
     assert isinstance(OutputWriteError("x"), OSError)
 
 
@@ -255,3 +256,37 @@ def test_an_appended_table_on_a_full_disk_keeps_whole_chunks_and_says_so(tmp_pat
     monkeypatch.undo()
     table.close()
     assert (tmp_path / "metrics.csv").read_bytes() == b"t,robot\n0,1\n"
+
+
+def test_a_second_writer_is_refused_naming_the_holder(tmp_path):
+    first = RunFolder(tmp_path / "run")
+    with pytest.raises(RunFolderError, match=rf"another swarmgames process \(pid {os.getpid()} "):
+        RunFolder(tmp_path / "run", force=True)
+    first.close()
+    RunFolder(tmp_path / "run", force=True).close()  # released: the next writer may
+
+
+def test_the_lock_of_a_killed_process_never_blocks_a_rerun(tmp_path):
+    import signal
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, time\n"
+        "from swarmgames.runfolder import RunFolder\n"
+        "RunFolder(sys.argv[1])\n"
+        "print('locked', flush=True)\n"
+        "time.sleep(60)\n"
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, str(tmp_path / "run")], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert proc.stdout.readline().strip() == "locked"
+        with pytest.raises(RunFolderError, match=rf"pid {proc.pid} "):
+            RunFolder(tmp_path / "run", force=True)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=30)
+    finally:
+        proc.kill()
+    RunFolder(tmp_path / "run", force=True).close()

@@ -195,6 +195,7 @@ def run(
         folder = result.folder
     else:
         extra = (*overrides, f"seed={seed}") if seed is not None else overrides
+        _report_broken_plugins()
         config = resolve_scenario(scenario, extra)  # validated before the folder is created
         folder = _open_run_folder(out, config.name, force)
         try:
@@ -541,6 +542,8 @@ def _report_runs(results, out: Path, metrics: list[str], title: str) -> None:
         + ", ".join(f"{counts.get(s, 0)} {s}" for s in ("complete", "failed", "interrupted"))
         + f" -> {out}/"
     )
+    for folder, why in results.attrs.get("rerun", {}).items():
+        click.secho(f"run again: {folder}: {why}", fg="yellow", err=True)
     failed = results[results["status"] == "failed"]
     for _, row in failed.head(5).iterrows():
         click.secho(f"failed: {row['folder']}: {row['error']}", fg="red", err=True)
@@ -885,6 +888,15 @@ def missions_list() -> None:
 
     for name in mission_names():
         click.echo(f"{name:<12} {get_mission(name).description}")
+    _report_broken_plugins()
+
+
+def _report_broken_plugins() -> None:
+    """One line on stderr per installed mission plug-in that cannot be loaded."""
+    from swarmgames.missions import broken_plugins
+
+    for why in broken_plugins().values():
+        click.secho(f"Warning: {why}", fg="yellow", err=True)
 
 
 @missions.command("check")

@@ -13,6 +13,7 @@ __all__ = [
     "ConfigError",
     "InputDataError",
     "OutputWriteError",
+    "PayoffError",
     "RunFolderError",
     "SwarmgamesError",
 ]
@@ -50,6 +51,12 @@ class RunFolderError(SwarmgamesError, FileExistsError):
 class OutputWriteError(SwarmgamesError, OSError):
     """An output file could not be written (disk full, permission, ...); the message names
     the file and the system's reason, and the file is left absent or as it was."""
+
+
+class PayoffError(SwarmgamesError, ValueError):
+    """A potential gave a non-finite payoff (a mission's bug, or states out of its range);
+    the message names the robot, its local game and the action, and the run adds the mission
+    and the stage."""
 
 
 class BackendUnavailableError(SwarmgamesError, ImportError):

@@ -8,13 +8,23 @@ while a run goes on are appended instead (:class:`AppendFile`): each chunk goes 
 system in one ``write``, so a killed process leaves whole chunks. A process killed
 while writing (``kill -9``) can leave its temporary file, ``.<name>.<random>.tmp``: such a
 leftover never makes a folder count as "not empty", and is removed when the folder is reused.
+
+One process at a time writes a run folder: :class:`RunFolder` takes an exclusive
+``fcntl.flock`` on the folder's :data:`LOCK_FILE` before it writes anything, and a second
+writer is refused with the holder's process id. The operating system releases the lock
+when its process ends in any way (``kill -9`` included), so a lock never outlives its writer;
+the lock file stays in the folder (removing it would let two writers lock two different
+files), hidden and ignored like a leftover temporary file.
 """
 
 from __future__ import annotations
 
 import contextlib
+import fcntl
+import hashlib
 import json
 import os
+import socket
 import sys
 import tempfile
 from collections.abc import Iterator
@@ -24,12 +34,41 @@ from typing import IO, Any
 from swarmgames.errors import OutputWriteError, RunFolderError
 
 __all__ = [
+    "LOCK_FILE",
     "AppendFile",
     "RunFolder",
     "atomic_open",
     "atomic_write_bytes",
     "atomic_write_text",
+    "sha256_file",
 ]
+
+#: The file a writer of a run folder holds locked (module notes).
+LOCK_FILE = ".swarmgames.lock"
+_CHUNK = 1 << 20
+
+
+def sha256_file(path: str | Path, size: int | None = None) -> str:
+    """The SHA-256 (hex) of the first ``size`` bytes of ``path`` (all of it when None).
+
+    Raises
+    ------
+    OSError
+        The file cannot be read; ``EOFError`` if it is shorter than ``size``.
+    """
+    digest = hashlib.sha256()
+    left = size
+    with open(path, "rb") as fh:
+        while left is None or left > 0:
+            chunk = fh.read(_CHUNK if left is None else min(_CHUNK, left))
+            if not chunk:
+                break
+            digest.update(chunk)
+            if left is not None:
+                left -= len(chunk)
+    if left:
+        raise EOFError(f"{path} is shorter than {size} bytes")
+    return digest.hexdigest()
 
 
 @contextlib.contextmanager
@@ -88,8 +127,10 @@ def _write_error(path: Path, exc: OSError) -> OutputWriteError:
 
 def _is_leftover(p: Path) -> bool:
     """Whether ``p`` is a temporary file of :func:`atomic_open` (``.<name>.<random>.tmp``),
-    left behind by a process killed while writing."""
+    left behind by a process killed while writing, or the folder's lock file."""
     name = p.name
+    if name == LOCK_FILE:
+        return True
     return name.startswith(".") and name.endswith(".tmp") and name.count(".") >= 3 and p.is_file()
 
 
@@ -161,8 +202,21 @@ class AppendFile:
                 "changed after the run stopped"
             )
         self.size = 0 if keep is None else int(keep)
+        self._hash = hashlib.sha256()
+        if self.size:
+            with open(self.path, "rb") as fh:
+                left = self.size
+                while left:
+                    chunk = fh.read(min(_CHUNK, left))
+                    self._hash.update(chunk)
+                    left -= len(chunk)
         os.ftruncate(self._fd, self.size)
         os.lseek(self._fd, self.size, os.SEEK_SET)
+
+    @property
+    def sha256(self) -> str:
+        """The SHA-256 (hex) of the file's content so far (kept as chunks are appended)."""
+        return self._hash.hexdigest()
 
     def append(self, data: bytes) -> None:
         """Append ``data`` (``write`` until all of it is written).
@@ -184,6 +238,7 @@ class AppendFile:
                 os.lseek(self._fd, self.size, os.SEEK_SET)
             raise _write_error(self.path, exc) from None
         self.size += len(data)
+        self._hash.update(data)
 
     def sync(self) -> None:
         """Make the appended bytes durable (``fsync``)."""
@@ -220,9 +275,10 @@ class RunFolder:
     Raises
     ------
     RunFolderError
-        If ``path`` exists, is not empty (temporary files left by a killed write do not count)
-        and ``force`` is false; is not a folder; or cannot be created or written into (below
-        a file, read-only, no permission).
+        If ``path`` exists, is not empty (temporary files left by a killed write and the lock
+        file do not count) and ``force`` is false; is not a folder; cannot be created or
+        written into (below a file, read-only, no permission); or another process holds its
+        lock (the message gives that process's id).
 
     Examples
     --------
@@ -234,27 +290,67 @@ class RunFolder:
 
     def __init__(self, path: str | Path, force: bool = False) -> None:
         self.path = Path(path)
-        if self.path.exists():
-            if not self.path.is_dir():
-                raise RunFolderError(f"output path {self.path} exists and is not a folder")
+        self._lock = -1
+        self._held = False  # whether this object ever held the lock
+        if self.path.exists() and not self.path.is_dir():
+            raise RunFolderError(f"output path {self.path} exists and is not a folder")
+        self.created = [p for p in (*reversed(self.path.parents), self.path) if not p.exists()]
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+            self._take_lock()
             if any(not _is_leftover(p) for p in self._entries()) and not force:
                 raise RunFolderError(
                     f"output folder {self.path} is not empty; use --force (force=True) to "
                     "write into it, or choose another --out"
                 )
-        self.created = [p for p in (*reversed(self.path.parents), self.path) if not p.exists()]
-        try:
-            self.path.mkdir(parents=True, exist_ok=True)
             _check_writable(self.path)
         except OSError as exc:
             self.discard_if_empty()
+            if isinstance(exc, RunFolderError):
+                raise
             why = exc.strerror or type(exc).__name__
             raise RunFolderError(f"cannot write into output folder {self.path}: {why}") from None
         for p in self._entries():
-            if _is_leftover(p):
+            if _is_leftover(p) and p.name != LOCK_FILE:
                 with contextlib.suppress(OSError):
                     p.unlink()
         self.written: list[Path] = []
+
+    def _take_lock(self) -> None:
+        """Hold the folder's lock file exclusively, or raise naming the process that does."""
+        lock = self.path / LOCK_FILE
+        fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 200, 0).decode("utf-8", "replace").strip() or "?"
+            os.close(fd)
+            raise RunFolderError(
+                f"output folder {self.path} is being written by another swarmgames process "
+                f"({holder}); wait for it to end, or choose another --out"
+            ) from None
+        except OSError:
+            os.close(fd)
+            raise
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}\n".encode(), 0)
+        self._lock, self._held = fd, True
+
+    def close(self) -> None:
+        """Release the folder's lock (idempotent); :func:`swarmgames.run` releases it at
+        the end of the run, and the object's collection or the process's end does too."""
+        if self._lock >= 0:
+            os.close(self._lock)
+            self._lock = -1
+
+    def __del__(self) -> None:
+        self.close()
+
+    def __enter__(self) -> RunFolder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
     def _entries(self) -> list[Path]:
         try:
@@ -265,8 +361,13 @@ class RunFolder:
 
     def discard_if_empty(self) -> None:
         """Remove the folders this RunFolder created, innermost first, as far as they are
-        empty (a run that failed before writing leaves no trace). A folder that existed
-        before is never removed."""
+        empty (a run that failed before writing leaves no trace; the lock is released). A
+        folder that existed before is never removed."""
+        if self.created and self._held:
+            with contextlib.suppress(OSError):
+                if all(p.name == LOCK_FILE for p in self.path.iterdir()):
+                    (self.path / LOCK_FILE).unlink()
+        self.close()
         for p in reversed(self.created):
             try:
                 p.rmdir()  # only succeeds on an empty folder

@@ -9,11 +9,18 @@ the built-in ones.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, Field
 
-__all__ = ["Section"]
+__all__ = ["MAX_COORDINATE_M", "Coordinate", "Section"]
+
+#: Largest coordinate of a point of a scenario, metres: 10 000 km, so that the squared
+#: distances of the radio model and the payoffs stay finite far beyond any swarm.
+MAX_COORDINATE_M = 1e7
+
+#: A coordinate (x or y) of a point of a scenario, metres, within +-:data:`MAX_COORDINATE_M`.
+Coordinate = Annotated[float, Field(ge=-MAX_COORDINATE_M, le=MAX_COORDINATE_M)]
 
 
 class Section(BaseModel):

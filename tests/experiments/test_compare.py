@@ -253,6 +253,8 @@ def test_bad_arguments():
         compare(trace, [OracleProvider(2), OracleProvider(2)], 5.0)
     with pytest.raises(ValueError, match="warmup_s must be >= 0"):
         compare(trace, [OracleProvider(2), OracleProvider(2)], warmup_s=-1.0)
+    with pytest.raises(ConfigError, match=r"warmup_s must leave samples to compare.*got 5\)"):
+        compare(trace, [OracleProvider(2), OracleProvider(2)], warmup_s=5.0)
 
 
 def test_unknown_backend_name_suggests_close_match():

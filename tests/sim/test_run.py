@@ -10,7 +10,7 @@ import pytest
 from swarmgames.config import ScenarioConfig, parse_config
 from swarmgames.errors import ConfigError, RunFolderError
 from swarmgames.missions.protocol import COMMS_COLUMNS, NETWORK_COLUMNS, SWARM_HEAD
-from swarmgames.runfolder import RunFolder
+from swarmgames.runfolder import LOCK_FILE, RunFolder
 from swarmgames.sim import build_mission, run
 from swarmgames.sim.controllers import GameController
 from swarmgames.sim.result import METRICS_COLUMNS, TRAJECTORY_COLUMNS
@@ -64,7 +64,7 @@ def test_tables_have_documented_columns(default_run):
 def test_run_folder_outputs(tmp_path):
     cfg = _cfg({"sim": {"animation": True, "animation_frames": 3}, "swarm": {"n_robots": 3}})
     res = run(cfg, out=tmp_path / "r", progress=False, provider=DiskOracle())
-    names = {p.name for p in (tmp_path / "r").iterdir()}
+    names = {p.name for p in (tmp_path / "r").iterdir()} - {LOCK_FILE}
     assert names == {
         "config.toml",
         "trajectory.csv",

@@ -118,3 +118,62 @@ def test_a_signal_whose_exception_c_code_swallowed_still_stops_the_run(monkeypat
     res = swarmgames.run(config, progress=False)
     assert res.summary["interrupted"] is True
     assert res.summary["stages"] == 2
+
+
+# The CLI in a fresh process that receives SIGTERM while it draws the paths figure.
+SIGTERM_IN_FIGURES = """
+import os, signal, sys, time
+from swarmgames.sim.result import RunResult
+
+real = RunResult.plot_paths
+
+def plot_paths(self):
+    os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(1)
+    return real(self)
+
+RunResult.plot_paths = plot_paths
+from swarmgames.cli import main
+main(sys.argv[1:])
+"""
+
+
+def test_sigterm_while_figures_are_written_keeps_the_promise(tmp_path):
+    from .test_resume import assert_same_run
+
+    tree = str(Path(swarmgames.__file__).resolve().parents[1])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([tree, os.environ.get("PYTHONPATH", "")])}
+    args = ["--no-progress", "--set", "sim.duration_s=4", "--set", "swarm.n_robots=4"]
+    args += ["--set", "sim.animation=false"]
+    full = tmp_path / "full"
+    ref = subprocess.run(
+        [sys.executable, "-m", "swarmgames", "run", "--out", str(full), *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert ref.returncode == 0, ref.stderr
+    out = tmp_path / "run"
+    proc = subprocess.run(
+        [sys.executable, "-c", SIGTERM_IN_FIGURES, "run", "--out", str(out), *args],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert proc.returncode == 130, proc.stderr
+    assert "Traceback" not in proc.stderr and f"--resume {out}" in proc.stderr
+    assert json.loads((out / "summary.json").read_text())["interrupted"] is True
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["status"] == "interrupted" and manifest["resumable"]
+    resumed = subprocess.run(
+        [sys.executable, "-m", "swarmgames", "run", "--resume", str(out), "--no-progress"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert resumed.returncode == 0, resumed.stderr
+    assert_same_run(out, full)
+    assert (out / "paths.png").is_file()

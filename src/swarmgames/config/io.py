@@ -52,6 +52,71 @@ __all__ = [
 ]
 
 
+#: Largest scenario file read, bytes (scenarios are a few kilobytes).
+MAX_TOML_BYTES = 1 << 20
+#: Deepest nesting of tables and arrays in a scenario.
+MAX_TOML_DEPTH = 32
+#: Problems listed in one error (the rest are counted).
+MAX_PROBLEMS = 20
+#: Characters of a value echoed in an error.
+MAX_ECHO = 200
+
+
+def shown(value: Any) -> str:
+    """``repr(value)``, cut to about :data:`MAX_ECHO` characters.
+
+    Examples
+    --------
+    >>> shown("x" * 1000)[-25:]
+    "...' (1002 characters)"
+    """
+    text = repr(value)
+    if len(text) <= MAX_ECHO:
+        return text
+    return f"{text[:MAX_ECHO]}...{text[-1]} ({len(text)} characters)"
+
+
+def _depth(data: Any) -> int:
+    """Nesting depth of tables and arrays (0 for a scalar), without recursion."""
+    deepest, stack = 0, [(data, 0)]
+    while stack:
+        node, depth = stack.pop()
+        if isinstance(node, dict):
+            node = list(node.values())
+        if isinstance(node, list):
+            deepest = max(deepest, depth + 1)
+            if depth + 1 <= MAX_TOML_DEPTH:
+                stack.extend((child, depth + 1) for child in node)
+    return deepest
+
+
+def _parse_toml(text: str, source: str) -> dict[str, Any]:
+    """The data of a scenario's TOML text, within the size and depth limits.
+
+    Raises
+    ------
+    ConfigError
+        Not TOML, larger than :data:`MAX_TOML_BYTES` or nested deeper than
+        :data:`MAX_TOML_DEPTH` (one line).
+    """
+    size = len(text.encode("utf-8"))
+    if size > MAX_TOML_BYTES:
+        raise ConfigError(
+            f"{source}: a scenario file must be at most {MAX_TOML_BYTES} bytes (got {size})"
+        )
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{source} is not valid TOML: {str(exc)[:MAX_ECHO]}") from None
+    except RecursionError:
+        data = None
+    if data is None or _depth(data) > MAX_TOML_DEPTH:
+        raise ConfigError(
+            f"{source}: tables and arrays may nest at most {MAX_TOML_DEPTH} deep (got deeper)"
+        )
+    return data
+
+
 def _rule(err: dict[str, Any]) -> str:
     kind, ctx = err["type"], err.get("ctx") or {}
     bounds = {
@@ -95,10 +160,12 @@ def _error_lines(
     mission: str | None = None,
     model: type[BaseModel] | None = None,
 ) -> list[str]:
-    """One line per problem; a path into ``mission`` is shown under the mission's name. An
-    unknown key of ``model`` (or of its sections) gets the closest known field suggested."""
+    """One line per problem, for the first :data:`MAX_PROBLEMS` (then a line counting the
+    rest); a path into ``mission`` is shown under the mission's name. An unknown key of
+    ``model`` (or of its sections) gets the closest known field suggested."""
     lines = []
-    for err in exc.errors():
+    errors = exc.errors()
+    for err in errors[:MAX_PROBLEMS]:
         loc = list(err["loc"])
         rule = _rule(err)
         if err["type"] == "extra_forbidden" and loc:
@@ -108,20 +175,26 @@ def _error_lines(
             rule += _did_you_mean(str(loc[-1]), known)
         if mission and loc and loc[0] == "mission":
             loc[0] = mission
-        path = ".".join(str(p) for p in loc)
+        path = ".".join(str(p) for p in loc)[:MAX_ECHO]
         if err["type"] == "value_error" and "(got" in rule:
-            lines.append(f"{path}: {rule}" if path else rule)
+            lines.append(f"{path}: {rule[: 2 * MAX_ECHO]}" if path else rule[: 2 * MAX_ECHO])
         else:
-            lines.append(f"{path}: {rule} (got {err['input']!r})")
+            lines.append(f"{path}: {rule[:MAX_ECHO]} (got {shown(err['input'])})")
+    if len(errors) > MAX_PROBLEMS:
+        lines.append(f"... and {len(errors) - MAX_PROBLEMS} more problems")
     return lines
 
 
 def _config_error(lines: list[str], source: str | None) -> ConfigError:
     where = f" in {source}" if source else ""
-    head = f"invalid configuration{where}: " + (
-        lines[0] if len(lines) == 1 else f"{len(lines)} problems"
-    )
-    msg = head if len(lines) == 1 else head + "\n  " + "\n  ".join(lines)
+    problems = [line for line in lines if not line.startswith("... and ")]
+    hidden = sum(int(line.split()[2]) for line in lines if line.startswith("... and "))
+    hidden += max(0, len(problems) - MAX_PROBLEMS)
+    problems = problems[:MAX_PROBLEMS]
+    total = len(problems) + hidden
+    lines = problems + ([f"... and {hidden} more problems"] if hidden else [])
+    head = f"invalid configuration{where}: " + (lines[0] if total == 1 else f"{total} problems")
+    msg = head if total == 1 else head + "\n  " + "\n  ".join(lines)
     return ConfigError(msg, lines)
 
 
@@ -150,6 +223,9 @@ def parse_config(data: dict[str, Any] | None = None, source: str | None = None) 
     """
     from swarmgames.missions.registry import get_mission, mission_names
 
+    if _depth(data) > MAX_TOML_DEPTH:
+        where = f"{source}: " if source else ""
+        raise ConfigError(f"{where}tables and arrays may nest at most {MAX_TOML_DEPTH} deep")
     data = dict(data or {})
     name = data.get("scenario", "coverage")
     lines: list[str] = []
@@ -200,12 +276,7 @@ def load_config(path: str | Path) -> ScenarioConfig:
     5
     """
     path = Path(path)
-    text = _read_file(path)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path} is not valid TOML: {exc}") from None
-    return parse_config(data, source=str(path))
+    return parse_config(_parse_toml(_read_file(path), str(path)), source=str(path))
 
 
 def _read_file(path: Path) -> str:
@@ -258,9 +329,18 @@ def parse_value(raw: str) -> Any:
     """
     raw = raw.strip()
     try:
-        return tomllib.loads(f"v = {raw}")["v"]
+        value = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:
         return raw
+    except RecursionError:
+        raise ConfigError(
+            f"override value: arrays may nest at most {MAX_TOML_DEPTH} deep (got deeper)"
+        ) from None
+    if _depth(value) > MAX_TOML_DEPTH:
+        raise ConfigError(
+            f"override value: arrays may nest at most {MAX_TOML_DEPTH} deep (got deeper)"
+        )
+    return value
 
 
 def set_path(data: dict[str, Any], assignment: str) -> None:
@@ -318,10 +398,7 @@ def resolve_scenario(
                 "or give a path to a .toml file)"
             )
         source, text = f"built-in scenario {scenario!r}", _builtin_text(str(scenario))
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{source} is not valid TOML: {exc}") from None
+    data = _parse_toml(text, source)
     for assignment in overrides:
         set_path(data, assignment)
     return parse_config(data, source=source)

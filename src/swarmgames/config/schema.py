@@ -39,7 +39,7 @@ from swarmgames.names import (
     REFINE_METHODS,
     VIRTUAL_MEANS,
 )
-from swarmgames.section import Section
+from swarmgames.section import Coordinate, Section
 
 __all__ = [
     "CommsConfig",
@@ -176,7 +176,9 @@ class NetworkConfig(_Section):
     )
     hops: int = Field(2, ge=1, le=64, description="Neighbourhood radius h, hops (paper: 2).")
     disk_radius_m: float = Field(368.84, gt=0, description="Radius of the 'disk' baseline, metres.")
-    knn_k: int = Field(4, ge=1, description="Number of neighbours of the 'knn' baseline.")
+    knn_k: int = Field(
+        4, ge=1, le=100_000, description="Number of neighbours of the 'knn' baseline."
+    )
     radio: RadioConfig = Field(default_factory=RadioConfig)
     olsr: OlsrConfig = Field(default_factory=OlsrConfig)
 
@@ -306,7 +308,7 @@ class GameConfig(_Section):
         50.0, gt=0, description="Inverse temperature of Q_j(x) ∝ exp(beta · E[M_i | x]), 1/payoff."
     )
     delta: float = Field(1e-6, gt=0, description="KL(Q_old || Q) stopping threshold, nats.")
-    max_iter: int = Field(200, ge=1, description="Maximum mean-field sweeps.")
+    max_iter: int = Field(200, ge=1, le=1_000_000, description="Maximum mean-field sweeps.")
     action_choice: Literal["argmax", "sample"] = Field(
         "argmax", description="How a robot picks its action from its own marginal."
     )
@@ -323,6 +325,7 @@ class GameConfig(_Section):
     max_profiles: int = Field(
         1_000_000,
         ge=1,
+        le=1_000_000_000,
         description="Largest number of joint profiles the exact solver enumerates per game.",
     )
     buckets: int = Field(
@@ -373,7 +376,7 @@ class SwarmConfig(_Section):
 
     n_robots: int = Field(7, ge=1, le=100_000, description="Number of UAVs.")
     altitude_m: float = Field(30.0, ge=0, description="Flight altitude above ground, metres.")
-    start_center_m: tuple[float, float] = Field(
+    start_center_m: tuple[Coordinate, Coordinate] = Field(
         (-300.0, 0.0), description="Centre of the common take-off area (x, y), metres."
     )
     start_radius_m: float = Field(
@@ -452,7 +455,7 @@ class FaultsConfig(_Section):
         description="Radio-only failures as [[t_s, robot], ...]: from t_s the robot flies on "
         "but neither sends nor receives.",
     )
-    jam_center_m: tuple[float, float] | None = Field(
+    jam_center_m: tuple[Coordinate, Coordinate] | None = Field(
         None, description="Centre of a jammed disc where no robot can send or receive, metres."
     )
     jam_radius_m: float = Field(0.0, ge=0, le=1e6, description="Radius of the jammed disc, metres.")
@@ -668,7 +671,9 @@ class ScenarioConfig(_Section):
             "table of that name."
         ),
     )
-    seed: int = Field(0, ge=0, description="Seed of the run's numpy random Generator.")
+    seed: int = Field(
+        0, ge=0, le=2**63 - 1, description="Seed of the run's numpy random Generator."
+    )
     swarm: SwarmConfig = Field(default_factory=SwarmConfig)
     network: NetworkConfig = Field(default_factory=NetworkConfig)
     game: GameConfig = Field(default_factory=GameConfig)

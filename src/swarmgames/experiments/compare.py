@@ -360,6 +360,11 @@ def compare(
             f"sample_every must be at most the trace duration {trace.end - trace.start:g} s "
             f"(got {sample_every})"
         )
+    if warmup_s > trace.end - trace.start:
+        raise ConfigError(
+            f"warmup_s must leave samples to compare: at most the trace duration "
+            f"{trace.end - trace.start:g} s (got {warmup_s:g})"
+        )
     rng = as_generator(seed)
     # One static shadowing field for every backend: they are compared on the same channel.
     shadowed = (config or NetworkConfig()).radio.shadowing_sigma_db > 0

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from swarmgames.arrays import freeze_fields
+from swarmgames.errors import PayoffError
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
 
@@ -304,7 +305,7 @@ def owner_payoffs(
     bad = amask & ~np.isfinite(u)
     if bad.any():
         gb, ga = (int(v) for v in np.argwhere(bad)[0])
-        raise ValueError(
+        raise PayoffError(
             f"unary potential is not finite ({u[gb, ga]}) for the local game of robot "
             f"{int(batch.owner[gb])} (game {gb}), variable 0, action {ga}"
         )

@@ -46,6 +46,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from swarmgames.arrays import freeze_fields
+from swarmgames.errors import PayoffError
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.names import PAIR_WEIGHTINGS
 
@@ -428,7 +429,7 @@ def evaluate_payoffs(
     bad = amask & ~np.isfinite(u)
     if bad.any():
         gb, gk, ga = (int(v) for v in np.argwhere(bad)[0])
-        raise ValueError(
+        raise PayoffError(
             f"unary potential is not finite ({u[gb, gk, ga]}) for {_where(batch, gb, gk)}, "
             f"action {ga}"
         )
@@ -493,7 +494,7 @@ def _check_pair_finite(
         idx = tuple(int(v) for v in np.argwhere(bad)[0])
         at = dict(zip(layout, idx, strict=True))
         gb, gk, gl = at["b"], at["k"], at["l"]
-        raise ValueError(
+        raise PayoffError(
             f"pairwise potential is not finite ({table[idx]}) for "
             f"{_where(batch, gb, gk)}, action {at['a']}, with variable {gl} "
             f"(robot {int(batch.members[gb, gl])}), action {at['c']}"

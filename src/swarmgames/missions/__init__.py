@@ -22,6 +22,7 @@ from swarmgames.missions.protocol import Mission
 from swarmgames.missions.registry import (
     ENTRY_POINT_GROUP,
     MissionEntry,
+    broken_plugins,
     get_mission,
     mission_names,
     register_mission,
@@ -42,6 +43,7 @@ __all__ = [
     "SignalModel",
     "TakeOff",
     "arena_for",
+    "broken_plugins",
     "check_mission",
     "disc_states",
     "get_mission",

@@ -32,6 +32,7 @@ from swarmgames.section import Section
 __all__ = [
     "ENTRY_POINT_GROUP",
     "MissionEntry",
+    "broken_plugins",
     "get_mission",
     "mission_names",
     "register_mission",
@@ -84,6 +85,8 @@ class MissionEntry:
 
 
 _registry: dict[str, MissionEntry] = {}
+#: Plug-ins that could not be loaded: their name and why, in one line.
+_broken: dict[str, str] = {}
 _loaded = False
 
 
@@ -104,27 +107,55 @@ def _load() -> None:
 
     for ep in entry_points(group=ENTRY_POINT_GROUP):
         try:
-            entry = ep.load()
-        except Exception as exc:  # a broken plug-in must not break the built-in missions
-            raise ConfigError(
-                f"cannot load mission plug-in {ep.name!r} ({ep.value}) from entry point group "
-                f"{ENTRY_POINT_GROUP!r}: {type(exc).__name__}: {exc}"
-            ) from None
-        if not isinstance(entry, MissionEntry):
-            raise ConfigError(
-                f"mission plug-in {ep.name!r} ({ep.value}) must be a swarmgames.missions."
-                f"MissionEntry (got {type(entry).__name__})"
-            )
-        if entry.name != ep.name:
-            raise ConfigError(
-                f"mission plug-in {ep.value}: entry point name {ep.name!r} differs from the "
-                f"entry's name {entry.name!r}"
-            )
-        if entry.name in _registry and _registry[entry.name] is not entry:
-            raise ConfigError(
-                f"mission plug-in {ep.value} registers {entry.name!r}, which is already taken"
-            )
-        _registry[entry.name] = entry
+            _registry[ep.name] = _plugin(ep)
+        except ConfigError as exc:  # a broken plug-in must not break the other missions
+            _broken[ep.name] = str(exc)
+
+
+def _plugin(ep) -> MissionEntry:
+    """The entry of the mission plug-in ``ep`` (an entry point), checked.
+
+    Raises
+    ------
+    ConfigError
+        It cannot be imported or is not a valid entry (one line).
+    """
+    try:
+        entry = ep.load()
+    except Exception as exc:  # any error of a plug-in's import is the plug-in's
+        why = " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
+        raise ConfigError(
+            f"cannot load mission plug-in {ep.name!r} ({ep.value}) from entry point group "
+            f"{ENTRY_POINT_GROUP!r}: {why}"
+        ) from None
+    if not isinstance(entry, MissionEntry):
+        raise ConfigError(
+            f"mission plug-in {ep.name!r} ({ep.value}) must be a swarmgames.missions."
+            f"MissionEntry (got {type(entry).__name__})"
+        )
+    if entry.name != ep.name:
+        raise ConfigError(
+            f"mission plug-in {ep.value}: entry point name {ep.name!r} differs from the "
+            f"entry's name {entry.name!r}"
+        )
+    if entry.name in _registry and _registry[entry.name] is not entry:
+        raise ConfigError(
+            f"mission plug-in {ep.value} registers {entry.name!r}, which is already taken"
+        )
+    return entry
+
+
+def broken_plugins() -> dict[str, str]:
+    """The installed mission plug-ins that could not be loaded: name to the reason, one line
+    each (the other missions work without them).
+
+    Examples
+    --------
+    >>> isinstance(broken_plugins(), dict)
+    True
+    """
+    _load()
+    return dict(_broken)
 
 
 def register_mission(entry: MissionEntry, *, replace: bool = False) -> MissionEntry:
@@ -175,6 +206,8 @@ def get_mission(name: str) -> MissionEntry:
     try:
         return _registry[name]
     except (KeyError, TypeError):
+        if isinstance(name, str) and name in _broken:
+            raise ConfigError(_broken[name]) from None
         names = mission_names()
         close = difflib.get_close_matches(str(name), names, n=3)
         hint = f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""

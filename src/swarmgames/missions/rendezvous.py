@@ -66,7 +66,7 @@ from swarmgames.missions.motion import TakeOff, uav_actions
 from swarmgames.missions.registry import MissionEntry
 from swarmgames.network.parameters import RadioParameters
 from swarmgames.network.propagation import PropagationModel, max_range
-from swarmgames.section import Section
+from swarmgames.section import Coordinate, Section
 
 __all__ = ["ENTRY", "RendezvousConfig", "RendezvousMission", "RendezvousPotentials", "build"]
 
@@ -83,7 +83,7 @@ class RendezvousConfig(Section):
     the least oscillation and no lost link, against 0, 1 and 3).
     """
 
-    goal_m: tuple[float, float] = Field(
+    goal_m: tuple[Coordinate, Coordinate] = Field(
         (300.0, 0.0), description="Goal point where the swarm meets (x, y), metres."
     )
     gather_radius_m: float = Field(

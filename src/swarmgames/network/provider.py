@@ -25,7 +25,7 @@ class NetworkState:
     Returned by ``provider.state()`` and taken back by ``provider.restore(state)``. It is
     independent of the provider: advancing the provider after ``state()`` does not change
     it, and one state can be restored many times (a planner explores from it; a checkpoint
-    pickles it).
+    stores it as data: arrays, numbers, strings and the provider's table classes).
 
     Attributes
     ----------

@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from swarmgames.errors import InputDataError
+from swarmgames.section import MAX_COORDINATE_M
 
 __all__ = ["PositionTrace", "read_positions"]
 
@@ -93,6 +94,14 @@ class PositionTrace:
                     f"{source}: line {line[k]}, column {col}: must be a finite number "
                     f"(got {_cell(df[col].iloc[k])!r})"
                 )
+            if col in ("x", "y", "z"):
+                far = np.abs(v) > MAX_COORDINATE_M  # squared distances must stay finite
+                if far.any():
+                    k = int(np.flatnonzero(far)[0])
+                    raise InputDataError(
+                        f"{source}: line {line[k]}, column {col}: must be within "
+                        f"+-{MAX_COORDINATE_M:g} m (got {_cell(df[col].iloc[k])!r})"
+                    )
             values[col] = v
         t, node = values["t"], values["node"]
         bad = (node < 0) | (node != np.round(node))

@@ -35,7 +35,7 @@ import numpy as np
 from scipy.sparse import csgraph, csr_array
 
 from swarmgames.arrays import freeze_fields
-from swarmgames.errors import ChannelOverloadWarning
+from swarmgames.errors import ChannelOverloadWarning, PayoffError
 from swarmgames.network.hops import hop_statistics
 from swarmgames.sim.signals import deferred_interrupts, raise_if_signalled
 from swarmgames.topology import TopologySnapshot
@@ -413,7 +413,12 @@ class StageLoop:
         if plan is not None and self._view is None:
             plan(self)
         view = self.observe(started)
-        dec = self.controller.decide(view.snapshot, view.states, self.rng, inbox=view.inbox)
+        try:
+            dec = self.controller.decide(view.snapshot, view.states, self.rng, inbox=view.inbox)
+        except PayoffError as exc:
+            raise PayoffError(
+                f"mission {self.mission.name!r}, stage {self.stage + 1} (t = {view.t:g} s): {exc}"
+            ) from None
         return self.act(dec)
 
     @property

@@ -202,7 +202,10 @@ class RunResult:
         """A run folder read back: its configuration, its tables (in whichever format
         ``sim.tables`` wrote them, complete or not) and its summary (empty if the run wrote
         none). The 1-hop links of each stage are not kept in a run folder: ``links`` is empty,
-        so ``plot_paths`` draws no links.
+        so ``plot_paths`` draws no links. A folder with a ``manifest.json`` (one that
+        :func:`swarmgames.run` wrote) is first checked against it
+        (:func:`~swarmgames.sim.journal.verify_run`); every file read is data (TOML, CSV,
+        Parquet, JSON).
 
         Parameters
         ----------
@@ -215,6 +218,8 @@ class RunResult:
         ------
         ConfigError, InputDataError
             An unreadable ``config.toml``, table or ``summary.json`` (one line naming it).
+        RunFolderError
+            A file that does not match the folder's manifest (one line naming it).
         """
         import json
         from pathlib import Path
@@ -222,9 +227,12 @@ class RunResult:
         from swarmgames.config import load_config
         from swarmgames.errors import InputDataError
         from swarmgames.missions import get_mission
+        from swarmgames.sim.journal import MANIFEST, verify_run
         from swarmgames.sim.tables import read_table
 
         path = Path(getattr(folder, "path", folder))
+        if (path / MANIFEST).exists():
+            verify_run(path)
         config = load_config(path / "config.toml")
         summary: dict = {}
         if (path / "summary.json").is_file():

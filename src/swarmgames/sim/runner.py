@@ -144,6 +144,9 @@ def run(
 
     Raises
     ------
+    RunFolderError
+        ``out`` cannot be used: not empty without ``force``, or being written by another
+        process (:class:`~swarmgames.runfolder.RunFolder` holds its lock for the run).
     ConfigError
         An invalid configuration (the message names the field, the rule and the value); a
         :class:`~swarmgames.sim.memory.MemoryLimitError` when the run's estimated peak memory
@@ -165,21 +168,28 @@ def run(
     # SIGTERM and SIGHUP (kill, timeout, schedulers, a closed terminal) stop the run like
     # Ctrl-C: the completed stages are kept and written.
     with signals_interrupt():
-        if out is not None and not isinstance(out, RunFolder):
+        opened = out is not None and not isinstance(out, RunFolder)
+        if opened:
             out = RunFolder(Path(out), force=force)
-        t0 = time.perf_counter()
-        states, loop, n_stages = build_loop(config, mission, provider)
-        loop.start(states)
-        journal = None
-        if out is not None:
-            from swarmgames.sim.journal import RunJournal
+        try:
+            t0 = time.perf_counter()
+            states, loop, n_stages = build_loop(config, mission, provider)
+            loop.start(states)
+            journal = None
+            if out is not None:
+                from swarmgames.sim.journal import RunJournal
 
-            journal = RunJournal.begin(
-                out, config, loop, states, n_stages, mission=mission.name, custom=custom
-            )
-        log = _drive(loop, states, n_stages, config, progress, journal, [], 0.0)
-        wall_s = time.perf_counter() - t0
-        return _finish(log, config, mission, wall_s, journal, progress, figures)
+                journal = RunJournal.begin(
+                    out, config, loop, states, n_stages, mission=mission.name, custom=custom
+                )
+            log = _drive(loop, states, n_stages, config, progress, journal, [], 0.0)
+            wall_s = time.perf_counter() - t0
+            return _finish(log, config, mission, wall_s, journal, progress, figures)
+        finally:
+            if out is not None:
+                if opened:
+                    out.discard_if_empty()  # a run that failed before its first stage
+                out.close()  # the folder's lock: the run's writing is over
 
 
 def _drive(loop, states, n_stages, config, progress, journal, records, wall_s) -> StageLog:
@@ -207,17 +217,22 @@ def _finish(
     log, config, mission, wall_s: float, journal, progress: bool, figures: bool
 ) -> RunResult:
     """The run's result; with a run folder, its figures, animation and summary written under
-    a progress bar of their own."""
-    result = RunResult.from_log(log, config, mission, wall_s)
-    if journal is not None:
-        with ProgressBar(f"{config.name}: figures and animation", progress and figures) as tick:
-            journal.finish(
-                result,
-                animation=config.sim.animation,
-                frames=config.sim.animation_frames,
-                progress=tick,
-                figures=figures,
-            )
+    a progress bar of their own. The manifest never says "running" once this stops."""
+    try:
+        result = RunResult.from_log(log, config, mission, wall_s)
+        if journal is not None:
+            with ProgressBar(f"{config.name}: figures and animation", progress and figures) as tick:
+                journal.finish(
+                    result,
+                    animation=config.sim.animation,
+                    frames=config.sim.animation_frames,
+                    progress=tick,
+                    figures=figures,
+                )
+    except BaseException as exc:
+        if journal is not None:
+            journal.fail(exc)
+        raise
     return result
 
 
@@ -263,7 +278,7 @@ def resume(
     """
     from swarmgames.config import load_config
     from swarmgames.runfolder import RunFolder
-    from swarmgames.sim.journal import RunJournal, read_checkpoint, read_manifest
+    from swarmgames.sim.journal import RunJournal, read_checkpoint, read_manifest, verify_run
 
     path = folder.path if isinstance(folder, RunFolder) else Path(folder)
     manifest = read_manifest(path)
@@ -283,22 +298,31 @@ def resume(
             f"({manifest['custom_provider']!r}); resume it from Python with "
             "swarmgames.resume(folder, provider=...)"
         )
-    config = load_config(path / "config.toml")
-    mission = _check_mission(config, mission)
     with signals_interrupt():
-        out = RunFolder.of(folder, force=True)
-        checkpoint = read_checkpoint(out, manifest)
-        if checkpoint is None:
-            _rebuild(out, config, mission, manifest)
-        _, loop, n_stages = build_loop(config, mission, provider)
-        loop.restore(checkpoint.loop)
-        journal, records = RunJournal.reopen(out, checkpoint, manifest)
-        t0 = time.perf_counter()
-        log = _drive(
-            loop, journal.start, n_stages, config, progress, journal, records, checkpoint.wall_s
-        )
-        wall_s = checkpoint.wall_s + time.perf_counter() - t0
-        return _finish(log, config, mission, wall_s, journal, progress, figures)
+        out = RunFolder.of(folder, force=True)  # the folder's lock, before anything is read
+        try:
+            manifest = verify_run(path)
+            config = load_config(path / "config.toml")
+            mission = _check_mission(config, mission)
+            checkpoint = read_checkpoint(out, manifest)
+            if checkpoint is None:
+                _rebuild(out, config, mission, manifest)
+            _, loop, n_stages = build_loop(config, mission, provider)
+            try:
+                loop.restore(checkpoint.loop)
+            except (ValueError, TypeError, KeyError, AttributeError) as exc:
+                raise RunFolderError(
+                    f"the checkpoint in {path} does not fit its run: {str(exc)[:200]}"
+                ) from None
+            journal, records = RunJournal.reopen(out, checkpoint, manifest)
+            t0 = time.perf_counter()
+            log = _drive(
+                loop, journal.start, n_stages, config, progress, journal, records, checkpoint.wall_s
+            )
+            wall_s = checkpoint.wall_s + time.perf_counter() - t0
+            return _finish(log, config, mission, wall_s, journal, progress, figures)
+        finally:
+            out.close()  # the folder's lock: the run's writing is over
 
 
 def _rebuild(out, config, mission, manifest) -> None:
@@ -306,7 +330,7 @@ def _rebuild(out, config, mission, manifest) -> None:
     records, then raise :class:`NotResumableError`."""
     from swarmgames.sim.journal import read_records
 
-    start, records, period = read_records(out)
+    start, records, period = read_records(out, manifest)
     log = StageLog.from_records(
         start,
         records,

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import contextlib
 import gzip
+import hashlib
 import io
 import os
 import shutil
@@ -36,6 +37,7 @@ from typing import Any
 import pandas as pd
 
 from swarmgames.errors import InputDataError, RunFolderError
+from swarmgames.runfolder import sha256_file
 
 __all__ = [
     "FORMATS",
@@ -45,6 +47,7 @@ __all__ = [
     "open_table",
     "read_table",
     "table_file",
+    "table_sha256",
 ]
 
 #: The tables of a run.
@@ -116,6 +119,11 @@ class _TextTable:
         """Bytes written: where a resumed run cuts the file back to."""
         return self.file.size
 
+    @property
+    def sha256(self) -> str:
+        """SHA-256 of the bytes written (:func:`table_sha256`)."""
+        return self.file.sha256
+
     def append(self, frame: pd.DataFrame) -> None:
         """Append ``frame``'s rows (with the header if the table is empty)."""
         data = _csv_bytes(frame, header=self.rows == 0)
@@ -148,6 +156,9 @@ class _ParquetTable:
         self.parts = 0 if keep is None else int(keep)
         self.rows = rows
         self._folder, self._name = folder, name
+        self._hash = hashlib.sha256()
+        for p in parts[: self.parts]:
+            self._hash.update(p.read_bytes())
         if self.dir not in folder.written:
             folder.written.append(self.dir)
 
@@ -155,6 +166,11 @@ class _ParquetTable:
     def size(self) -> int:
         """Parts written: where a resumed run cuts the dataset back to."""
         return self.parts
+
+    @property
+    def sha256(self) -> str:
+        """SHA-256 of the parts written, one after the other (:func:`table_sha256`)."""
+        return self._hash.hexdigest()
 
     def append(self, frame: pd.DataFrame) -> None:
         """Write ``frame`` as the next part."""
@@ -164,8 +180,11 @@ class _ParquetTable:
         from swarmgames.runfolder import atomic_open
 
         table = pa.Table.from_pandas(frame, preserve_index=False)
+        buf = io.BytesIO()
+        pq.write_table(table, buf, compression="zstd")
         with atomic_open(self.dir / f"part-{self.parts:06d}.parquet", "wb") as fh:
-            pq.write_table(table, fh, compression="zstd")
+            fh.write(buf.getvalue())
+        self._hash.update(buf.getvalue())
         self.parts += 1
         self.rows += len(frame)
 
@@ -194,6 +213,26 @@ def open_table(folder, name: str, fmt: str, keep: int | None = None, rows: int =
     if fmt == "parquet":
         return _ParquetTable(folder, name, keep, rows)
     return _TextTable(folder, name, fmt, keep, rows)
+
+
+def table_sha256(path: Path, fmt: str, size: int) -> str:
+    """The SHA-256 of the first ``size`` bytes of a text table (Parquet: of its first ``size``
+    parts, one after the other), as the table computed it while it grew.
+
+    Raises
+    ------
+    OSError
+        The table cannot be read, or has fewer bytes (parts) than ``size``.
+    """
+    if fmt != "parquet":
+        return sha256_file(path, size)
+    parts = sorted(Path(path).glob("part-*.parquet"))
+    if len(parts) < size:
+        raise FileNotFoundError(f"{path} has {len(parts)} parts, not {size}")
+    digest = hashlib.sha256()
+    for p in parts[:size]:
+        digest.update(p.read_bytes())
+    return digest.hexdigest()
 
 
 def read_table(folder: str | Path, name: str) -> pd.DataFrame:

@@ -4,6 +4,7 @@ from one process, two processes and Ray, interruption by SIGTERM, and the errors
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import signal
@@ -21,6 +22,7 @@ import swarmgames
 from swarmgames.config import parse_config
 from swarmgames.errors import BackendUnavailableError, ConfigError, RunFolderError
 from swarmgames.experiments.sweep import aggregate, executors, paired_differences
+from swarmgames.runfolder import LOCK_FILE
 from swarmgames.sim.journal import RunJournal, read_manifest
 
 #: Three robots, four stages: a run takes a fraction of a second.
@@ -69,7 +71,7 @@ def executed(monkeypatch):
 
 def test_a_sweep_writes_a_run_folder_per_run_and_its_tables(reference):
     out, res = reference
-    assert sorted(p.name for p in out.iterdir()) == [
+    assert sorted(p.name for p in out.iterdir() if p.name != LOCK_FILE) == [
         "aggregate.csv",
         "config.toml",
         "coverage_end_dbm.png",
@@ -284,6 +286,13 @@ def test_a_run_folder_written_before_a_field_was_added_is_the_same_run(reference
     older = "\n".join(line for line in text.splitlines() if not line.startswith("buckets ="))
     assert older != text
     folder.write_text(older + "\n", encoding="utf-8")
+    # As the older swarmgames wrote it: its manifest vouches for that config.toml.
+    manifest = json.loads((folder.parent / "manifest.json").read_text())
+    manifest["files"]["config.toml"] = {
+        "bytes": folder.stat().st_size,
+        "sha256": hashlib.sha256(folder.read_bytes()).hexdigest(),
+    }
+    (folder.parent / "manifest.json").write_text(json.dumps(manifest))
     again = swarmgames.sweep(BASE, GRID, SEEDS, jobs=1, out=out)
     assert executed == []
     _same_numbers(again, res)
@@ -321,3 +330,20 @@ def test_paired_differences_hold_outcomes_only_and_are_plotted(reference):
             FigureCanvasAgg(fig).draw()
             FigureCanvasAgg(plot_paired(paired_differences(constant), metric)).draw()
     assert fig.axes[0].get_xlabel() == "swarm.n_robots: Number of UAVs"
+
+
+def test_a_run_whose_files_do_not_match_its_manifest_is_run_again_not_aggregated(
+    reference, executed
+):
+    out, res = reference
+    folder = out / res["folder"].iloc[1]
+    summary = json.loads((folder / "summary.json").read_text())
+    key = next(k for k, v in summary.items() if isinstance(v, float))
+    honest = summary[key]
+    summary[key] = 451.7  # edited by hand
+    (folder / "summary.json").write_text(json.dumps(summary))
+    again = swarmgames.sweep(BASE, GRID, SEEDS, jobs=1, out=out)
+    assert [t.folder for t in executed] == [str(folder.resolve())]
+    assert "summary.json does not match the manifest" in again.attrs["rerun"][res["folder"].iloc[1]]
+    assert again[key].iloc[1] == honest
+    _same_numbers(again, res)

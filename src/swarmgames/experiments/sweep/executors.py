@@ -11,7 +11,11 @@ them).
 * ``local`` with one job runs in this process (plug-in missions registered at run time work
   only here);
 * ``local`` with more jobs uses a :class:`~concurrent.futures.ProcessPoolExecutor` of spawned
-  processes (no fork: Numba's threads and a forked process do not mix);
+  processes (no fork: Numba's threads and a forked process do not mix). A worker that dies
+  (killed, out of memory, a crash in compiled code) fails only the run it was running, with
+  the cause: the pool is rebuilt and the other runs go on (those the broken pool stopped
+  continue from their checkpoints). Workers end with the sweep's process however it ends
+  (``PR_SET_PDEATHSIG`` on Linux, and a thread watching the parent's process id elsewhere);
 * ``ray`` sends each run to a Ray cluster (``ray.init(address=...)``) or to a local Ray of
   ``jobs`` CPUs; the optional extra ``pip install 'swarmgames[ray]'``. On a cluster, every
   node needs swarmgames and the sweep's folder (a shared file system).
@@ -20,9 +24,14 @@ them).
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import json
 import os
 import shutil
 import signal
+import sys
+import threading
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -43,6 +52,8 @@ OnDone = Callable[[int, dict[str, Any]], None]
 #: Set in each worker process of the local pool by :func:`_init_worker`: the sweep's stop
 #: event, seen by tasks that start after an interruption.
 _STOP: Any = None
+#: Set likewise: where a worker says which task it starts and ends (``(index, pid, ended)``).
+_STARTED: Any = None
 
 
 @dataclass(frozen=True)
@@ -79,8 +90,10 @@ def default_jobs() -> int:
         return os.cpu_count() or 1
 
 
-def _outcome(status: str, error: str = "", summary: dict | None = None) -> dict[str, Any]:
-    return {"status": status, "error": error, "summary": dict(summary or {})}
+def _outcome(
+    status: str, error: str = "", summary: dict | None = None, note: str = ""
+) -> dict[str, Any]:
+    return {"status": status, "error": error, "summary": dict(summary or {}), "note": note}
 
 
 def _fresh(task: RunTask):
@@ -100,10 +113,12 @@ def execute(task: RunTask) -> dict[str, Any]:
     -------
     dict
         ``status`` (``"complete"``, ``"failed"`` or ``"interrupted"``), ``error`` (``"Type:
-        message"`` of a failed run, else ``""``) and ``summary`` (the run's ``summary.json``;
-        empty unless complete or interrupted).
+        message"`` of a failed run, else ``""``), ``summary`` (the run's ``summary.json``;
+        empty unless complete or interrupted) and ``note`` (why a run to continue was run
+        from scratch, else ``""``).
     """
     from swarmgames.sim import NotResumableError, resume
+    from swarmgames.sim.journal import read_manifest, verify_run
 
     if task.threads is not None:
         import numba
@@ -112,11 +127,20 @@ def execute(task: RunTask) -> dict[str, Any]:
     with signals_interrupt():
         if _STOP is not None and _STOP.is_set():
             return _outcome("interrupted")
+        note = ""
+        if task.resume:  # a run may have ended just before its worker was stopped
+            with contextlib.suppress(RunFolderError, OSError, ValueError):
+                manifest = read_manifest(task.folder)
+                if manifest["status"] == "complete":
+                    verify_run(task.folder, manifest)
+                    summary = json.loads((Path(task.folder) / "summary.json").read_text())
+                    return _outcome("complete", summary=summary)
         try:
             if task.resume:
                 try:
                     result = resume(task.folder, progress=False, figures=task.figures)
-                except (NotResumableError, RunFolderError):
+                except (NotResumableError, RunFolderError) as exc:
+                    note = f"run again: {exc}"[:300]
                     result = _fresh(task)  # no usable checkpoint: run it again
             else:
                 result = _fresh(task)
@@ -126,7 +150,8 @@ def execute(task: RunTask) -> dict[str, Any]:
             with contextlib.suppress(OSError):
                 Path(task.folder).rmdir()  # a run that failed before its first stage
             return _outcome("failed", f"{type(exc).__name__}: {exc}")
-    return _outcome("interrupted" if result.interrupted else "complete", summary=result.summary)
+    status = "interrupted" if result.interrupted else "complete"
+    return _outcome(status, summary=result.summary, note=note)
 
 
 def import_ray():
@@ -194,16 +219,50 @@ def _in_process(tasks: Sequence[RunTask], on_done: OnDone) -> bool:
     return False
 
 
-def _init_worker(stop, pids) -> None:
+def _init_worker(stop, pids, started, parent: int) -> None:
     """Start a pool worker: it stops only when the sweep tells it (SIGTERM while it runs a
-    task, the stop event before it starts one), not on the terminal's Ctrl-C; and it keeps
-    freed memory for reuse, as the ``swarmgames`` command does."""
-    global _STOP
-    _STOP = stop
+    task, the stop event before it starts one), not on the terminal's Ctrl-C; it ends with
+    the sweep's process (``parent``); and it keeps freed memory for reuse, as the
+    ``swarmgames`` command does."""
+    global _STOP, _STARTED
+    _STOP, _STARTED = stop, started
+    _end_with(parent)
     reuse_freed_memory()
     for sig in (signal.SIGINT, *INTERRUPT_SIGNALS):
         signal.signal(sig, signal.SIG_IGN)
     pids.put(os.getpid())
+
+
+#: ``prctl`` option: the signal a process gets when its parent ends (Linux).
+_PR_SET_PDEATHSIG = 1
+#: How often a worker looks whether the sweep's process is still there, s.
+_PARENT_POLL_S = 0.5
+
+
+def _end_with(parent: int) -> None:
+    """Have this process killed when process ``parent`` ends: the kernel's parent-death
+    signal on Linux, and a thread that polls the parent's pid (macOS has no such signal;
+    on Linux it also covers a parent gone before the signal was set)."""
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+
+
+def _watch_parent(parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(_PARENT_POLL_S)
+    os.kill(os.getpid(), signal.SIGKILL)  # the sweep is gone: nobody reads this run's result
+
+
+def _run_in_worker(index: int, task: RunTask) -> dict[str, Any]:
+    """:func:`execute` in a pool worker, telling the sweep which worker starts it and when it
+    ends (a worker that dies never says so)."""
+    _STARTED.put((index, os.getpid(), False))
+    try:
+        return execute(task)
+    finally:
+        _STARTED.put((index, os.getpid(), True))
 
 
 def _future_outcome(future) -> dict[str, Any]:
@@ -211,48 +270,95 @@ def _future_outcome(future) -> dict[str, Any]:
         return future.result()
     except KeyboardInterrupt:  # the stop signal came just outside the run
         return _outcome("interrupted")
-    except Exception as exc:  # the worker died (out of memory, killed): the run failed
+    except Exception as exc:
         return _outcome("failed", f"{type(exc).__name__}: {exc}")
 
 
 def _in_processes(tasks: Sequence[RunTask], on_done: OnDone, jobs: int) -> bool:
     import multiprocessing
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
 
     ctx = multiprocessing.get_context("spawn")
-    stop, pids = ctx.Event(), ctx.SimpleQueue()
-    pool = ProcessPoolExecutor(
-        max_workers=min(jobs, len(tasks)),
-        mp_context=ctx,
-        initializer=_init_worker,
-        initargs=(stop, pids),
-    )
+    stop = ctx.Event()
     share = max(1, default_jobs() // jobs)
-    index = {pool.submit(execute, replace(t, threads=share)): i for i, t in enumerate(tasks)}
-    pending = set(index)
-    try:
-        with signals_interrupt():
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for future in done:
-                    outcome = _future_outcome(future)
-                    on_done(index[future], outcome)
-                    if outcome["status"] == "interrupted":
-                        raise KeyboardInterrupt
-    except KeyboardInterrupt:
-        stop.set()  # before the signals: a task that starts now sees it
-        for future in pending:
-            future.cancel()
-        while not pids.empty():
-            with contextlib.suppress(ProcessLookupError):
-                os.kill(pids.get(), signal.SIGTERM)
-        for future in pending:
-            if not future.cancelled():
-                on_done(index[future], _future_outcome(future))
-        return True
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+    todo = {i: replace(t, threads=share) for i, t in enumerate(tasks)}
+    while todo:
+        pids, started = ctx.SimpleQueue(), ctx.SimpleQueue()
+        pool = ProcessPoolExecutor(
+            max_workers=min(jobs, len(todo)),
+            mp_context=ctx,
+            initializer=_init_worker,
+            initargs=(stop, pids, started, os.getpid()),
+        )
+        index = {pool.submit(_run_in_worker, i, t): i for i, t in todo.items()}
+        pending = set(index)
+        broken = False
+        try:
+            with signals_interrupt():
+                while pending and not broken:
+                    done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                    for future in done:
+                        if isinstance(future.exception(), BrokenProcessPool):
+                            broken = True
+                            continue
+                        outcome = _future_outcome(future)
+                        on_done(index[future], outcome)
+                        del todo[index[future]]
+                        if outcome["status"] == "interrupted":
+                            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            stop.set()  # before the signals: a task that starts now sees it
+            for future in pending:
+                future.cancel()
+            while not pids.empty():
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pids.get(), signal.SIGTERM)
+            for future in pending:
+                if not future.cancelled():
+                    on_done(index[future], _future_outcome(future))
+            return True
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+        if broken:
+            _after_broken_pool(todo, index, started, on_done)
     return False
+
+
+def _after_broken_pool(todo: dict[int, RunTask], index: dict, started, on_done: OnDone) -> None:
+    """A worker died and took the pool down: report what finished, fail the run whose worker
+    died (it started and never ended), and leave the others in ``todo`` to continue (from
+    their checkpoints; the broken pool stopped them with SIGTERM) in a new pool."""
+    workers, ended = {}, set()
+    while not started.empty():
+        i, pid, end = started.get()
+        workers[i] = pid
+        if end:
+            ended.add(i)
+    if not workers:  # the workers die before they run anything: no pool will do better
+        for i in list(todo):
+            on_done(i, _outcome("failed", "WorkerDied: the sweep's worker processes end at start"))
+            del todo[i]
+        return
+    for future, i in index.items():
+        if i not in todo:
+            continue
+        if future.done() and not future.cancelled() and future.exception() is None:
+            on_done(i, future.result())
+            del todo[i]
+        elif i in workers and i not in ended:
+            on_done(
+                i,
+                _outcome(
+                    "failed",
+                    f"WorkerDied: the worker process running it (pid {workers[i]}) ended "
+                    "abruptly (killed, out of memory, or a crash); its completed stages are "
+                    "kept",
+                ),
+            )
+            del todo[i]
+        elif i in workers:
+            todo[i] = replace(todo[i], resume=True)
 
 
 def _on_ray(tasks: Sequence[RunTask], on_done: OnDone, jobs: int, address: str | None) -> bool:

@@ -11,11 +11,14 @@ The sweep's folder ``DIR`` holds
 * ``aggregate.csv`` and ``paired.csv`` (:mod:`~swarmgames.experiments.sweep.stats`) and one
   ``<metric>.png`` per plotted figure (:func:`~swarmgames.experiments.sweep.plots.plot_metric`).
 
-Running the same sweep again resumes it: a run whose folder's manifest says ``complete`` is
-read, not run; ``running`` or ``interrupted`` ones are continued from their checkpoint
+Running the same sweep again resumes it: a run whose folder's manifest says ``complete`` and
+whose files match the manifest (:func:`~swarmgames.sim.journal.verify_run`) is read, not run;
+``running`` or ``interrupted`` ones are continued from their checkpoint
 (:func:`swarmgames.resume`; from scratch when they have none) and ``failed`` ones run again.
-A run folder whose ``config.toml`` is not the configuration the sweep would run stops the
-sweep before anything runs.
+A folder whose files do not match its manifest is never aggregated: it is run again, and
+the reason is reported (``results.attrs["rerun"]``, printed by the command). A run folder
+whose ``config.toml`` is not the configuration the sweep would run stops the sweep before
+anything runs.
 """
 
 from __future__ import annotations
@@ -65,6 +68,7 @@ class _Found:
 
     kind: Literal["new", "done", "resume"]
     summary: Mapping[str, Any] | None = None
+    why: str = ""  # why a folder that held a run is run again
 
 
 def _same_config(path: Path, config: ScenarioConfig) -> bool:
@@ -84,7 +88,7 @@ def _same_config(path: Path, config: ScenarioConfig) -> bool:
 
 
 def _inspect(folder: Path, config: ScenarioConfig) -> _Found:
-    from swarmgames.sim.journal import read_manifest
+    from swarmgames.sim.journal import MANIFEST, read_manifest, verify_run
 
     if not folder.exists():
         return _Found("new")
@@ -93,15 +97,21 @@ def _inspect(folder: Path, config: ScenarioConfig) -> _Found:
             f"{folder} holds a run of another configuration (its config.toml is not the one "
             "this sweep runs there); choose another --out"
         )
+    if not (folder / MANIFEST).exists():
+        return _Found("new")
     try:
         manifest = read_manifest(folder)
-    except RunFolderError:
-        return _Found("new")
+    except RunFolderError as exc:
+        return _Found("new", why=str(exc))
     if manifest["status"] == "complete":
         try:
-            return _Found("done", json.loads((folder / "summary.json").read_text("utf-8")))
-        except (OSError, ValueError):
-            return _Found("new")
+            verify_run(folder, manifest)
+            summary = json.loads((folder / "summary.json").read_text("utf-8"))
+        except (RunFolderError, OSError, ValueError, RecursionError) as exc:
+            return _Found("new", why=str(exc)[:300])
+        if not isinstance(summary, dict):
+            return _Found("new", why=f"{folder / 'summary.json'} is not a summary")
+        return _Found("done", summary)
     if manifest["status"] in ("running", "interrupted") and manifest.get("resumable"):
         return _Found("resume")
     return _Found("new")
@@ -265,7 +275,9 @@ def sweep(
     DataFrame
         The results table (``results.csv``): one row per run, in grid order. If Ctrl-C,
         SIGTERM or SIGHUP stopped the sweep, the runs it did not finish say ``status =
-        "interrupted"`` and the tables are written for what finished.
+        "interrupted"`` and the tables are written for what finished. ``attrs["rerun"]``
+        maps the folder of every run that was run again because its folder did not match its
+        manifest (or could not be continued) to the reason.
 
     Raises
     ------
@@ -294,53 +306,60 @@ def sweep(
     plan = plan_sweep(base, factors_from_mapping(overrides), seeds, zip)
     if executor == "ray":
         import_ray()
-    root = _open_root(Path(out))
-    runs = root.path.resolve() / RUNS
-    found = [_inspect(runs / p.folder, p.config) for p in plan.points]
-    root.write_json(
-        SWEEP_FILE,
-        {
-            "format": FORMAT,
-            "scenario": base.name
-            if scenario is None or isinstance(scenario, ScenarioConfig)
-            else str(scenario),
-            "factors": {f.path: [toml_literal(v) for v in f.levels] for f in plan.factors},
-            "seeds": list(plan.seeds),
-            "zip": plan.zip,
-            "runs": len(plan.points),
-        },
-    )
-    root.write_text("config.toml", to_toml(base))
-    outcomes: list[Mapping[str, Any] | None] = [
-        {"status": "complete", "error": "", "summary": f.summary} if f.kind == "done" else None
-        for f in found
-    ]
-    todo = [i for i, f in enumerate(found) if f.kind != "done"]
-    tasks = [
-        RunTask(
-            str(runs / plan.points[i].folder),
-            plan.points[i].config,
-            found[i].kind == "resume",
-            figures=run_figures,
+    root = _open_root(Path(out))  # the sweep folder's lock: one sweep writes it
+    try:
+        runs = root.path.resolve() / RUNS
+        found = [_inspect(runs / p.folder, p.config) for p in plan.points]
+        root.write_json(
+            SWEEP_FILE,
+            {
+                "format": FORMAT,
+                "scenario": base.name
+                if scenario is None or isinstance(scenario, ScenarioConfig)
+                else str(scenario),
+                "factors": {f.path: [toml_literal(v) for v in f.levels] for f in plan.factors},
+                "seeds": list(plan.seeds),
+                "zip": plan.zip,
+                "runs": len(plan.points),
+            },
         )
-        for i in todo
-    ]
-    from swarmgames.sim.progress import ProgressBar
+        root.write_text("config.toml", to_toml(base))
+        outcomes: list[Mapping[str, Any] | None] = [
+            {"status": "complete", "error": "", "summary": f.summary} if f.kind == "done" else None
+            for f in found
+        ]
+        todo = [i for i, f in enumerate(found) if f.kind != "done"]
+        rerun = {f"{RUNS}/{plan.points[i].folder}": f.why for i, f in enumerate(found) if f.why}
+        tasks = [
+            RunTask(
+                str(runs / plan.points[i].folder),
+                plan.points[i].config,
+                found[i].kind == "resume",
+                figures=run_figures,
+            )
+            for i in todo
+        ]
+        from swarmgames.sim.progress import ProgressBar
 
-    finished = len(plan.points) - len(todo)
-    label = f"sweep ({finished} of {len(plan.points)} runs already complete)"
-    with ProgressBar(label, progress, total=len(plan.points)) as tick:
-        if tick is not None:
-            tick(finished)
-
-        def on_done(k: int, outcome: Mapping[str, Any]) -> None:
-            nonlocal finished
-            outcomes[todo[k]] = outcome
-            finished += 1
+        finished = len(plan.points) - len(todo)
+        label = f"sweep ({finished} of {len(plan.points)} runs already complete)"
+        with ProgressBar(label, progress, total=len(plan.points)) as tick:
             if tick is not None:
                 tick(finished)
 
-        run_tasks(tasks, on_done, jobs=jobs, executor=executor, address=address)
-    results = _results(plan, outcomes)
-    write_tables(root, results, plan.zip, metrics)
-    return results
+            def on_done(k: int, outcome: Mapping[str, Any]) -> None:
+                nonlocal finished
+                outcomes[todo[k]] = outcome
+                if outcome.get("note"):
+                    rerun[f"{RUNS}/{plan.points[todo[k]].folder}"] = outcome["note"]
+                finished += 1
+                if tick is not None:
+                    tick(finished)
+
+            run_tasks(tasks, on_done, jobs=jobs, executor=executor, address=address)
+        results = _results(plan, outcomes)
+        results.attrs["rerun"] = rerun
+        write_tables(root, results, plan.zip, metrics)
+        return results
+    finally:
+        root.close()

@@ -13,7 +13,7 @@ from typing import Any, Literal
 from pydantic import Field, model_validator
 
 from swarmgames.missions.coverage.roi import constant_density, grid_problem
-from swarmgames.section import Section
+from swarmgames.section import Coordinate, Section
 
 __all__ = ["CoverageConfig"]
 
@@ -33,7 +33,7 @@ class CoverageConfig(Section):
     validated (:meth:`derive`), instead of being fixed numbers.
     """
 
-    roi_mean_m: tuple[float, float] = Field(
+    roi_mean_m: tuple[Coordinate, Coordinate] = Field(
         (0.0, 0.0), description="Mean of the Gaussian region of interest (x, y), metres."
     )
     roi_cov_m2: tuple[tuple[float, float], tuple[float, float]] = Field(
