@@ -983,7 +983,9 @@ def comms_replay(
     from swarmgames.experiments.comms_replay import replay_comms
     from swarmgames.network.trace import read_positions
 
-    extra = () if model is None else (f"comms.model={model!r}",)
+    extra = (f"network.backend={backend!r}",) + (
+        () if model is None else (f"comms.model={model!r}",)
+    )
     cfg = resolve_scenario(None, (*overrides, *extra))
     trace = read_positions(positions)  # validate before creating the folder
     folder = _open_run_folder(out, f"comms-replay-{positions.stem}", force)

@@ -110,3 +110,24 @@ def test_a_run_records_its_channel_load_and_warns_once_when_it_cannot_fit(tmp_pa
     metrics = pd.read_csv(tmp_path / "run" / "metrics.csv")
     assert np.isclose(metrics.groupby("t")["channel_load"].max().to_numpy(),
                       swarm["channel_load"].to_numpy()).all()  # fmt: skip
+
+
+@pytest.mark.ns3
+def test_replay_through_ns3_with_ns3_packets_from_the_cli(tmp_path):
+    from swarmgames.network import ns3_import
+
+    try:
+        ns3_import.load_ns3()
+    except Exception as exc:
+        pytest.skip(str(exc))
+    trace = _static(tmp_path, 6, 500.0, seconds=22.0)
+    res = CliRunner().invoke(
+        cli,
+        ["comms", "replay", "--positions", str(trace), "--out", str(tmp_path / "out"),
+         "--backend", "ns3", "--comms", "ns3", "--seed", "0", "--no-progress"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    delivery = pd.read_csv(tmp_path / "out" / "delivery.csv")
+    assert list(delivery.columns) == list(DELIVERY_COLUMNS)
+    assert (delivery["pairs"] > 0).all() and (delivery["ratio"] <= 1.0).all()
+    assert "ns3 on ns3: 6 robots, 2 stages" in res.output
