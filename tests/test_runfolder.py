@@ -274,7 +274,7 @@ def test_the_lock_of_a_killed_process_never_blocks_a_rerun(tmp_path):
     code = (
         "import sys, time\n"
         "from swarmgames.runfolder import RunFolder\n"
-        "RunFolder(sys.argv[1])\n"
+        "folder = RunFolder(sys.argv[1])\n"
         "print('locked', flush=True)\n"
         "time.sleep(60)\n"
     )

@@ -234,8 +234,10 @@ def test_long_float32_pair_fields_sum_in_float64_and_converge_as_float64_does():
     """A Curie-Weiss (mean-field Ising) game of 600 spins near its critical coupling
     (D. Koller and N. Friedman, Probabilistic Graphical Models, 2009, section 11.5), whose
     pair table carries a large constant term that cancels in every softmax but not in a
-    float32 sum: summed in float32 the marginals dither around the fixed point and the
-    KL test takes three times the sweeps; summed wide they converge with the float64 table."""
+    float32 sum: summed in float32 the marginals dither around the fixed point, and how
+    that shows depends on the CPU's vector width (the lanes of the sum): with AVX-512 the
+    KL test takes three times the sweeps, with AVX2 it stops 2.5e-3 away from the fixed
+    point. Summed wide they converge with the float64 table on either."""
     from swarmgames.game.meanfield_compiled import WIDE_SUM_MIN, solve_batch
 
     k = 600
@@ -247,7 +249,9 @@ def test_long_float32_pair_fields_sum_in_float64_and_converge_as_float64_does():
     wide = solve_batch(lg32, w32, nv, 1.0, 1e-6, 200)
     narrow = solve_batch(lg32, w32, nv, 1.0, 1e-6, 200, wide_min=10**9)
     assert abs(int(wide[1][0]) - int(f64[1][0])) <= 5
-    assert narrow[1][0] >= 2 * wide[1][0]
+    narrow_err = np.abs(narrow[0] - f64[0]).max()
+    wide_err = np.abs(wide[0] - f64[0]).max()
+    assert narrow[1][0] >= 2 * wide[1][0] or narrow_err >= 5 * wide_err
     # Near the critical coupling the last sweeps move Q by less than a float32 step: the
     # float32 marginals agree with float64's to about 1e-4.
     np.testing.assert_allclose(wide[0], f64[0], atol=5e-4)
