@@ -162,6 +162,14 @@ def _earlier(et, ev, a, b):
     return ev[a, 1] < ev[b, 1]
 
 
+@njit(cache=True, inline="always")
+def _swap(et, ev, a, b):
+    """Exchange heap entries ``a`` and ``b``."""
+    et[a], et[b] = et[b], et[a]
+    for c in range(4):
+        ev[a, c], ev[b, c] = ev[b, c], ev[a, c]
+
+
 @njit(cache=True)
 def _push(ev, et, ne, seq, t, kind, arg, ver):
     """Add an event to the heap (``et`` its times; ``ev`` rows of kind, sequence, argument
@@ -177,9 +185,7 @@ def _push(ev, et, ne, seq, t, kind, arg, ver):
     while j > 0:
         p = (j - 1) // 2
         if _earlier(et, ev, j, p):
-            et[j], et[p] = et[p], et[j]
-            for c in range(4):
-                ev[j, c], ev[p, c] = ev[p, c], ev[j, c]
+            _swap(et, ev, j, p)
             j = p
         else:
             break
@@ -202,9 +208,7 @@ def _pop(ev, et, ne):
         if a + 1 < last and _earlier(et, ev, a + 1, a):
             a += 1
         if _earlier(et, ev, a, j):
-            et[j], et[a] = et[a], et[j]
-            for c in range(4):
-                ev[j, c], ev[a, c] = ev[a, c], ev[j, c]
+            _swap(et, ev, j, a)
             j = a
         else:
             break
