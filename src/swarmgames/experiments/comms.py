@@ -108,6 +108,7 @@ class CommsResult:
             marker="s",
             capsize=3,
         )
+        axs[2].set_xticks(crash["crashed"].tolist())
         axs[2].set_xlabel("robots crashed at mid-mission")
         axs[2].set_ylabel("coverage at the end (dBm)")
         fig.suptitle("communication: loss and failures (default scenario, mean ± std over seeds)")

@@ -280,9 +280,8 @@ def replay_comms(
             progress=progress,
         )
     finally:
-        close = getattr(provider, "close", None)
-        if close is not None:
-            close()
+        if backend == "ns3":  # the ns-3 simulator's nodes and sockets
+            provider.close()
     return CommsReplay(delivery, stages, cfg.comms.model, backend)
 
 
