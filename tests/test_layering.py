@@ -19,6 +19,7 @@ BASE = (
     "swarmgames.arrays",
     "swarmgames.errors",
     "swarmgames.labels",
+    "swarmgames.lifetime",
     "swarmgames.names",
     "swarmgames.rng",
     "swarmgames.runfolder",

@@ -12,6 +12,7 @@ __all__ = [
     "ChannelOverloadWarning",
     "ConfigError",
     "InputDataError",
+    "Ns3CrashError",
     "OutputWriteError",
     "PayoffError",
     "RunFolderError",
@@ -61,6 +62,33 @@ class PayoffError(SwarmgamesError, ValueError):
 
 class BackendUnavailableError(SwarmgamesError, ImportError):
     """An optional backend (for example ns-3) is not installed; the message says how to get it."""
+
+
+class Ns3CrashError(SwarmgamesError, RuntimeError):
+    """The ns-3 process stopped: an ``NS_ASSERT`` or ``NS_FATAL_ERROR`` in ns-3, or a crash.
+
+    ns-3 runs in a child process of its own (:mod:`swarmgames.network.ns3_process`), so the
+    caller survives and keeps what it completed. The message is one line quoting ns-3's
+    reason, with the ns-3 run number and the simulated time.
+
+    Attributes
+    ----------
+    reason : str
+        ns-3's own line (``NS_ASSERT failed, cond=...``), or how the process ended.
+    run : int or None
+        The ns-3 run number (``RngSeedManager::SetRun``) of the scenario that was running.
+    time : float or None
+        Simulated time of the failure in the caller's clock, seconds (ns-3's time stamp plus
+        the scenario's start time), or the time ns-3 was asked to reach if ns-3 gave none.
+    exit_code : int
+        The process's exit status (negative: killed by that signal).
+    """
+
+    def __init__(
+        self, message: str, reason: str, run: int | None, time: float | None, exit_code: int
+    ) -> None:
+        super().__init__(message)
+        self.reason, self.run, self.time, self.exit_code = reason, run, time, exit_code
 
 
 class ChannelOverloadWarning(UserWarning):

@@ -14,7 +14,7 @@ from swarmgames.comms.models import table_links
 from swarmgames.comms.wire import decode_messages, encode_messages
 from swarmgames.config import parse_config
 from swarmgames.errors import BackendUnavailableError, ConfigError
-from swarmgames.network import ns3_import
+from swarmgames.network import ns3_process
 
 #: 802.11a DCF: a broadcast waits DIFS = SIFS (16 µs) + 2 slots (9 µs) on an idle medium.
 DIFS_S = 34e-6
@@ -31,7 +31,7 @@ DISTURBED_EXTRA_S = 0.3e-3
 def ns3():
     """The ns-3 provider class, or a skip saying how to install ns-3."""
     try:
-        ns3_import.load_ns3()
+        ns3_process.shared_process()
     except BackendUnavailableError as exc:
         pytest.skip(str(exc))
     from swarmgames.network.ns3_backend import Ns3Provider

@@ -7,13 +7,13 @@ import pytest
 
 from swarmgames.errors import BackendUnavailableError, ConfigError
 from swarmgames.experiments.comms_ns3 import compare_control_traffic, compare_delivery
-from swarmgames.network import ns3_import
+from swarmgames.network import ns3_process
 
 
 @pytest.fixture(scope="module")
 def ns3():
     try:
-        ns3_import.load_ns3()
+        ns3_process.shared_process()
     except BackendUnavailableError as exc:
         pytest.skip(str(exc))
 

@@ -114,10 +114,10 @@ def test_a_run_records_its_channel_load_and_warns_once_when_it_cannot_fit(tmp_pa
 
 @pytest.mark.ns3
 def test_replay_through_ns3_with_ns3_packets_from_the_cli(tmp_path):
-    from swarmgames.network import ns3_import
+    from swarmgames.network import ns3_process
 
     try:
-        ns3_import.load_ns3()
+        ns3_process.shared_process()
     except Exception as exc:
         pytest.skip(str(exc))
     trace = _static(tmp_path, 6, 500.0, seconds=22.0)

@@ -14,7 +14,7 @@ import pytest
 from scipy import stats
 
 from swarmgames.errors import BackendUnavailableError
-from swarmgames.network import ns3_import
+from swarmgames.network import ns3_process
 from swarmgames.network.factory import make_provider
 from swarmgames.network.links import link_graph
 from swarmgames.network.oracle import OracleProvider
@@ -93,7 +93,7 @@ def test_ns3_and_olsr_agree_on_a_shadowed_channel():
     # Same key -> same MatrixPropagationLossModel losses in ns-3 as in the built-in model, so
     # after settling both route the same graph (the static-layout criterion of issue 4).
     try:
-        ns3_import.load_ns3()
+        ns3_process.shared_process()
     except BackendUnavailableError as exc:
         pytest.skip(str(exc))
     pos = _swarm(20, 900.0, 11)

@@ -44,7 +44,8 @@ def channel_vs_ns3(trace: str = "static_40_dense", stages: int = 5, seed: int = 
     from swarmgames.comms import CsmaComms
     from swarmgames.comms.ns3_comms import Ns3Comms
     from swarmgames.experiments.channel_record import TRACES
-    from swarmgames.network.ns3_import import load_ns3, ns3_available
+    from swarmgames.network.ns3_import import ns3_available
+    from swarmgames.network.ns3_process import shared_process
     from swarmgames.network.trace import PositionTrace
 
     rec: dict[str, Any] = {"benchmark": "csma_vs_ns3", "trace": trace, "stages": stages}
@@ -53,7 +54,7 @@ def channel_vs_ns3(trace: str = "static_40_dense", stages: int = 5, seed: int = 
         return rec
     from swarmgames.network.ns3_backend import Ns3Provider
 
-    load_ns3()
+    shared_process()  # the ns-3 process and its import are not compared
     path = PositionTrace.from_frame(TRACES[trace].positions(), source=trace)
     n = path.n_robots
     rng = np.random.default_rng(seed)

@@ -678,14 +678,15 @@ def _olsr_vs_ns3(n: int, sim_seconds: float, seed: int) -> dict:
     """The built-in OLSR (full protocol) and ns-3 on the same drifting-swarm trace."""
     from swarmgames.bench.network import random_swarm
     from swarmgames.config import NetworkConfig
-    from swarmgames.network.ns3_import import load_ns3, ns3_available
+    from swarmgames.network.ns3_import import ns3_available
+    from swarmgames.network.ns3_process import shared_process
     from swarmgames.sim.providers import provider_from_config
 
     rec: dict[str, Any] = {"benchmark": "olsr_vs_ns3", "n_robots": n, "sim_seconds": sim_seconds}
     if not ns3_available():
         rec["skipped"] = "ns-3 not installed"
         return rec
-    load_ns3()  # the ~10 s import is not part of the comparison
+    shared_process()  # the ns-3 process and its ~10 s import are not compared
     rng = np.random.default_rng(seed)
     start = random_swarm(n, 6.0, seed=rng)
     heading = rng.uniform(0, 2 * np.pi, n)

@@ -32,10 +32,14 @@ derives its other timers from the intervals (jitter ``hello / 4``, neighbour hol
 that ns-3 cannot express raise :class:`~swarmgames.errors.ConfigError` rather than being
 silently ignored.
 
-ns-3 has one simulator per process. A provider owns it from its ``reset`` until another
-provider's ``reset`` (``Simulator.Destroy`` and ``Ipv4AddressGenerator.Reset`` run between
-scenarios, so one process can run many of them and pay the import once); using a provider whose
-simulator was taken over raises ``RuntimeError``.
+ns-3 runs in a child process (:mod:`swarmgames.network.ns3_process`, built by
+:mod:`swarmgames.network.ns3_worker`), so that an abort inside ns-3 raises
+:class:`~swarmgames.errors.Ns3CrashError` here, one line with ns-3's reason, the run number and
+the simulated time, instead of ending the caller. That process has one simulator. A provider
+owns it from its ``reset`` until another provider's ``reset`` (``Simulator.Destroy`` and
+``Ipv4AddressGenerator.Reset`` run between scenarios, so one process can run many of them and
+pay the import once); using a provider whose simulator was taken over raises
+``RuntimeError``.
 
 References
 ----------
@@ -47,16 +51,16 @@ References
 
 from __future__ import annotations
 
-import itertools
+import dataclasses
 import math
 from typing import Any
 
 import numpy as np
 
-from swarmgames.errors import ConfigError
-from swarmgames.network.ns3_import import load_ns3, quiet_stderr
+from swarmgames.errors import ConfigError, Ns3CrashError
+from swarmgames.network.ns3_process import Ns3ProcessDied, shared_process
 from swarmgames.network.parameters import OlsrParameters, RadioParameters
-from swarmgames.network.propagation import new_shadowing_key, pair_gaussians
+from swarmgames.network.propagation import new_shadowing_key
 from swarmgames.network.provider import NetworkState, SnapshotUnsupported
 from swarmgames.network.validation import check_positions, check_time
 from swarmgames.rng import as_generator
@@ -66,12 +70,6 @@ __all__ = ["Ns3Provider", "check_ns3_config"]
 
 #: ns-3's fixed duplicate-set hold time, seconds (``OLSR_DUP_HOLD_TIME``).
 NS3_DUPLICATE_HOLD_S = 30.0
-
-_WILLINGNESS = {0: "never", 1: "low", 3: "default", 6: "high", 7: "always"}
-
-# ns-3 keeps one simulator per process: the token of the provider that built the current one.
-_tokens = itertools.count(1)
-_owner: list[int] = [0]
 
 
 def check_ns3_config(olsr: OlsrParameters) -> None:
@@ -118,32 +116,6 @@ def check_ns3_config(olsr: OlsrParameters) -> None:
         raise ConfigError(msg, problems)
 
 
-def _assign_streams(wifi, devices, channel, stack, olsr_helper, nodes) -> int:
-    """Give every random variable of the scenario a fixed ns-3 stream number, from 0 up.
-
-    Without this, ns-3 numbers the streams of its random variables in the order they are
-    created, from a counter that ``Simulator::Destroy`` does not reset: the second scenario of
-    a process then draws other OLSR jitter (and fading) than the first, even with the same run
-    number. Streams are assigned in this order, which a plain ns-3 program must follow to
-    reproduce a run: Wi-Fi devices (``WifiHelper::AssignStreams``: PHY, MAC back-off, station
-    manager), the channel's loss chain (``YansWifiChannel::AssignStreams``: Nakagami fading),
-    the IP stacks (``InternetStackHelper::AssignStreams``: ARP jitter) and OLSR
-    (``OlsrHelper::AssignStreams``: HELLO, TC and forwarding jitter, ``JITTER`` in
-    ``olsr-routing-protocol.cc``).
-
-    Returns the number of streams used.
-
-    References
-    ----------
-    .. [1] ns-3 3.44 manual, "Random Variables": "Setting the stream number" and
-       ``AssignStreams``.
-    """
-    stream = wifi.AssignStreams(devices, 0)
-    stream += channel.AssignStreams(stream)
-    stream += stack.AssignStreams(nodes, stream)
-    return stream + olsr_helper.AssignStreams(nodes, stream)
-
-
 class Ns3Provider:
     """Neighbourhoods from ns-3's OLSR routing tables (a :class:`NeighbourhoodProvider`).
 
@@ -162,8 +134,9 @@ class Ns3Provider:
     run : int, optional
         Use this ns-3 run number (``RngSeedManager.SetRun``, with seed 1) at every ``reset``
         instead of drawing one. Every random variable gets a fixed stream number (see
-        :func:`_assign_streams`), so a run is the same in every scenario of a process and
-        in a plain ns-3 program that assigns its streams in the same order.
+        :func:`swarmgames.network.ns3_worker._assign_streams`), so a run is the same in every
+        scenario of a process and in a plain ns-3 program that assigns its streams in the same
+        order.
     shadowing_key : int, optional
         Key of the static per-pair shadowing field (see
         :func:`~swarmgames.network.propagation.pair_gaussians`); providers given the same key
@@ -175,11 +148,14 @@ class Ns3Provider:
         If the ``ns3`` package is not installed (``pip install 'swarmgames[ns3]'``).
     ConfigError
         If ``olsr`` asks for OLSR timers that ns-3 cannot reproduce.
+    Ns3CrashError
+        From any method that runs ns-3, if ns-3 aborts (see :meth:`call`).
 
     Notes
     -----
-    The first provider of a process imports ns-3 (5-18 s, about 665 MB); later ones reuse it.
-    Hop counts are those of each node's own table: unreachable destinations have no entry.
+    The first provider of a process starts the ns-3 process, which imports ns-3 (5-18 s,
+    about 665 MB); later ones reuse it, and one after a crash starts a fresh one. Hop counts
+    are those of each node's own table: unreachable destinations have no entry.
 
     Examples
     --------
@@ -217,13 +193,10 @@ class Ns3Provider:
         self._shadowing_key = shadowing_key
         if self.radio.shadowing_sigma_db > 0 and shadowing_key is None:
             self._shadowing_key = new_shadowing_key(self._rng)
-        self._ns = load_ns3()
-        self._token = next(_tokens)
+        self._process = shared_process()
+        self._scenario = 0  # the scenario's id in the ns-3 process; 0: none
         self._n = 0
         self._offset = self._time = 0.0
-        self._mobility: list[Any] = []
-        self._routing: list[Any] = []
-        self._addresses = np.empty(0, dtype=np.int64)
         self.run_number: int | None = None
 
     def __repr__(self) -> str:
@@ -236,6 +209,11 @@ class Ns3Provider:
         """Current simulated time, in seconds (ns-3's clock runs from 0 at ``start_time``)."""
         return self._time
 
+    @property
+    def start_time(self) -> float:
+        """The time of the last ``reset``, seconds: ns-3's clock reads 0 then."""
+        return self._offset
+
     def reset(self, positions: np.ndarray, start_time: float = 0.0) -> TopologySnapshot:
         """Build a fresh ns-3 scenario with robots at ``positions`` (shape (N, 3), metres).
 
@@ -245,9 +223,20 @@ class Ns3Provider:
         p = check_positions(positions, self.n_robots)
         if not math.isfinite(start_time):
             raise ValueError(f"start_time must be finite (got {start_time})")
-        with quiet_stderr():
-            self._build(p)
+        if not self._process.alive:  # the last scenario took its process down
+            self._process = shared_process()
+        self.run_number = self._run or int(self._rng.integers(1, 2**31))
         self._offset = self._time = float(start_time)
+        self._scenario = 0
+        self._scenario = self.call(
+            "build",
+            p,
+            dataclasses.asdict(self.radio),
+            dataclasses.asdict(self.olsr),
+            self.run_number,
+            self._shadowing_key,
+        )
+        self._n = p.shape[0]
         return self.snapshot()
 
     def advance(self, to_time: float, positions: np.ndarray) -> TopologySnapshot:
@@ -262,40 +251,42 @@ class Ns3Provider:
         """Like :meth:`advance` without reading the tables (cheaper for fine mobility steps)."""
         if not self._n:
             raise RuntimeError("call reset(positions) before advancing the ns3 provider")
-        self._check_owner()
         to_time = check_time(to_time, self._time - 1e-9)
         p = check_positions(positions, self._n)
-        ns = self._ns
-        self._place(p)
-        stop_ns = round((to_time - self._offset) * 1e9)
-        delay = stop_ns - ns.Simulator.Now().GetNanoSeconds()
-        if delay > 0:
-            with quiet_stderr():
-                ns.Simulator.Stop(ns.NanoSeconds(delay))
-                ns.Simulator.Run()
+        self.call("step", round((to_time - self._offset) * 1e9), p, until=float(to_time))
         self._time = max(self._time, float(to_time))
 
     def snapshot(self) -> TopologySnapshot:
-        """Every robot's current OLSR routing table as a :class:`TopologySnapshot`."""
-        self._check_owner()
-        owner, dest, nxt, hops = [], [], [], []
-        for i, proto in enumerate(self._routing):
-            for e in proto.GetRoutingTableEntries():
-                owner.append(i)
-                dest.append(e.destAddr.Get())
-                nxt.append(e.nextAddr.Get())
-                hops.append(e.distance)
-        dest_i = self._index(np.asarray(dest, dtype=np.int64))
-        next_i = self._index(np.asarray(nxt, dtype=np.int64))
-        keep = (dest_i >= 0) & (dest_i != np.asarray(owner, dtype=np.int64))
+        """Every robot's current OLSR routing table as a :class:`TopologySnapshot`.
+
+        Entries whose destination is no robot, or the owner itself (ns-3 routes a node to
+        itself through a stale topology tuple), are left out; :meth:`routing_entries` has
+        them all."""
+        owner, dest, next_hop, hops = self.routing_entries()
+        keep = (dest >= 0) & (dest != owner)
         return TopologySnapshot(
             time=self.time,
             n_robots=self._n,
-            owner=np.asarray(owner, dtype=np.int32)[keep],
-            dest=dest_i[keep],
-            hops=np.asarray(hops, dtype=np.int16)[keep],
-            next_hop=next_i[keep],
+            owner=owner[keep],
+            dest=dest[keep],
+            hops=hops[keep],
+            next_hop=next_hop[keep],
         )
+
+    def routing_entries(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Every entry of every node's ns-3 OLSR routing table, as ns-3 holds it.
+
+        Returns
+        -------
+        owner, dest, next_hop : ndarray of int32, shape (E,)
+            The table's node, the destination and the next hop, as robot indices (-1 for an
+            address that is no robot's).
+        hops : ndarray of int16, shape (E,)
+            The entry's distance.
+        """
+        if not self._n:
+            raise RuntimeError("call reset(positions) before reading the ns3 provider's tables")
+        return self.call("tables")
 
     def state(self) -> NetworkState:
         """Not available: ns-3 cannot snapshot a running simulator (its event queue, sockets
@@ -316,20 +307,53 @@ class Ns3Provider:
         self.state()
 
     @property
-    def nodes(self) -> Any:
-        """The ns-3 ``NodeContainer`` of the current scenario (robot i is node i), for the
-        applications that run on the robots (:mod:`swarmgames.network.ns3_packets`)."""
-        self._check_owner()
-        return self._nodes
+    def scenario(self) -> int:
+        """The id of this provider's scenario in its ns-3 process (0: none), which the
+        applications on the robots (:mod:`swarmgames.network.ns3_packets`) attach to."""
+        return self._scenario
+
+    def call(self, op: str, *args: Any, until: float | None = None) -> Any:
+        """Send request ``op`` about this provider's scenario to the ns-3 process
+        (:mod:`swarmgames.network.ns3_worker`), for this provider and the applications that
+        run on its robots.
+
+        Parameters
+        ----------
+        op : str
+            The request; the scenario's id goes first among its arguments, except for
+            ``build``.
+        *args
+            Its other arguments.
+        until : float, optional
+            The time, in this provider's clock, that the request runs ns-3 to; named when
+            ns-3 fails without a time stamp of its own.
+
+        Raises
+        ------
+        Ns3CrashError
+            If ns-3 ended its process (an ``NS_ASSERT``, ``NS_FATAL_ERROR`` or a crash): one
+            line with ns-3's reason, this provider's run number and the simulated time.
+        RuntimeError
+            If this provider's scenario was destroyed (another provider's ``reset``, or
+            ``close``) or never built.
+        """
+        if op != "build":
+            if not self._scenario:
+                raise RuntimeError(
+                    "this ns3 provider's scenario was destroyed or never built; call reset"
+                )
+            args = (self._scenario, *args)
+        try:
+            return self._process.call(op, *args)
+        except Ns3ProcessDied as died:
+            self._scenario, self._n = 0, 0
+            raise self._crash(died, until) from None
 
     def close(self) -> None:
         """Destroy this provider's ns-3 scenario (a no-op if another provider took over)."""
-        if self._n and _owner[0] == self._token:
-            with quiet_stderr():
-                self._ns.Simulator.Destroy()
-            _owner[0] = 0
-        self._n = 0
-        self._mobility, self._routing = [], []
+        if self._scenario and self._process.alive:
+            self._process.call("destroy", self._scenario)
+        self._scenario, self._n = 0, 0
 
     def __enter__(self) -> Ns3Provider:
         return self
@@ -339,113 +363,17 @@ class Ns3Provider:
 
     # -- internals -----------------------------------------------------------------------------
 
-    def _check_owner(self) -> None:
-        if _owner[0] != self._token:
-            raise RuntimeError(
-                "this ns3 provider's scenario was destroyed (ns-3 runs one scenario per "
-                "process and another provider called reset, or close was called); call reset"
-            )
-
-    def _index(self, addr: np.ndarray) -> np.ndarray:
-        pos = np.searchsorted(self._addresses, addr)
-        pos = np.minimum(pos, self._addresses.size - 1)
-        hit = self._addresses[pos] == addr
-        return np.where(hit, self._order[pos], -1).astype(np.int32)
-
-    def _place(self, p: np.ndarray) -> None:
-        vec = self._ns.Vector
-        for mob, (x, y, z) in zip(self._mobility, p.tolist(), strict=True):
-            mob.SetPosition(vec(x, y, z))
-
-    def _build(self, p: np.ndarray) -> None:
-        ns = self._ns
-        radio, olsr = self.radio, self.olsr
-        n = p.shape[0]
-        ns.Simulator.Destroy()
-        ns.Ipv4AddressGenerator.Reset()
-        _owner[0] = self._token
-        self.run_number = self._run or int(self._rng.integers(1, 2**31))
-        ns.RngSeedManager.SetSeed(1)
-        ns.RngSeedManager.SetRun(self.run_number)
-
-        nodes = ns.NodeContainer()
-        nodes.Create(n)
-        mobility = ns.MobilityHelper()
-        mobility.SetMobilityModel("ns3::ConstantPositionMobilityModel")
-        mobility.Install(nodes)
-        self._mobility = [nodes.Get(i).GetObject[ns.MobilityModel]() for i in range(n)]
-        self._place(p)
-
-        wifi = ns.WifiHelper()
-        wifi.SetStandard(ns.WIFI_STANDARD_80211a)
-        rate = ns.StringValue("OfdmRate6Mbps")
-        wifi.SetRemoteStationManager(
-            "ns3::ConstantRateWifiManager", "DataMode", rate, "ControlMode", rate
-        )
-        phy = ns.YansWifiPhyHelper()
-        channel = self._channel(radio)
-        phy.SetChannel(channel)
-        power = ns.DoubleValue(radio.tx_power_dbm)
-        phy.Set("TxPowerStart", power)
-        phy.Set("TxPowerEnd", power)
-        phy.SetPreambleDetectionModel(
-            "ns3::ThresholdPreambleDetectionModel",
-            "MinimumRssi",
-            ns.DoubleValue(radio.rx_threshold_dbm),
-        )
-        mac = ns.WifiMacHelper()
-        mac.SetType("ns3::AdhocWifiMac")
-        devices = wifi.Install(phy, mac, nodes)
-
-        helper = ns.OlsrHelper()
-        helper.Set("HelloInterval", ns.TimeValue(ns.Seconds(olsr.hello_interval_s)))
-        helper.Set("TcInterval", ns.TimeValue(ns.Seconds(olsr.tc_interval_s)))
-        helper.Set("Willingness", ns.StringValue(_WILLINGNESS[olsr.willingness]))
-        stack = ns.InternetStackHelper()
-        stack.SetRoutingHelper(helper)
-        stack.Install(nodes)
-        ipv4 = ns.Ipv4AddressHelper()
-        ipv4.SetBase(ns.Ipv4Address("10.0.0.0"), ns.Ipv4Mask("255.0.0.0"))
-        interfaces = ipv4.Assign(devices)
-        self._routing = [nodes.Get(i).GetObject[ns.olsr.RoutingProtocol]() for i in range(n)]
-        _assign_streams(wifi, devices, channel, stack, helper, nodes)
-
-        addr = np.array([interfaces.GetAddress(i).Get() for i in range(n)], dtype=np.int64)
-        self._order = np.argsort(addr).astype(np.int32)
-        self._addresses = addr[self._order]
-        self._n = n
-        self._nodes = nodes
-
-    def _channel(self, radio: RadioParameters) -> Any:
-        ns = self._ns
-        if radio.loss_model == "friis":
-            loss = ns.CreateObject[ns.FriisPropagationLossModel]()
-            loss.SetAttribute("Frequency", ns.DoubleValue(radio.frequency_hz))
-            loss.SetAttribute("SystemLoss", ns.DoubleValue(radio.system_loss))
-            loss.SetAttribute("MinLoss", ns.DoubleValue(radio.min_loss_db))
+    def _crash(self, died: Ns3ProcessDied, until: float | None) -> Ns3CrashError:
+        """The one-line error of a dead ns-3 process, in this provider's run and clock."""
+        if died.ns3_time is not None:
+            t, when = died.ns3_time + self._offset, f"t = {died.ns3_time + self._offset:.6g} s"
+        elif until is not None:
+            t, when = until, f"between t = {self._time:g} s and {until:g} s"
         else:
-            loss = ns.CreateObject[ns.LogDistancePropagationLossModel]()
-            loss.SetAttribute("Exponent", ns.DoubleValue(radio.exponent))
-            loss.SetAttribute("ReferenceDistance", ns.DoubleValue(radio.reference_distance_m))
-            loss.SetAttribute("ReferenceLoss", ns.DoubleValue(radio.reference_loss_db))
-        last = loss
-        if radio.shadowing_sigma_db > 0:
-            matrix = ns.CreateObject[ns.MatrixPropagationLossModel]()
-            matrix.SetDefaultLoss(0.0)
-            n = len(self._mobility)
-            iu, ju = np.triu_indices(n, k=1)
-            # The same static per-pair field as the built-in providers with the same key.
-            draws = radio.shadowing_sigma_db * pair_gaussians(iu, ju, self._shadowing_key)
-            for i, j, db in zip(iu.tolist(), ju.tolist(), draws.tolist(), strict=True):
-                matrix.SetLoss(self._mobility[i], self._mobility[j], db, True)
-            last.SetNext(matrix)
-            last = matrix
-        if radio.nakagami_m is not None:
-            fading = ns.CreateObject[ns.NakagamiPropagationLossModel]()
-            for k in ("m0", "m1", "m2"):
-                fading.SetAttribute(k, ns.DoubleValue(radio.nakagami_m))
-            last.SetNext(fading)
-        channel = ns.CreateObject[ns.YansWifiChannel]()
-        channel.SetPropagationLossModel(loss)
-        channel.SetPropagationDelayModel(ns.CreateObject[ns.ConstantSpeedPropagationDelayModel]())
-        return channel
+            t, when = None, f"after t = {self._time:g} s"
+        node = "" if died.node is None or died.node < 0 else f", node {died.node}"
+        message = (
+            f"ns-3 aborted in its run {self.run_number} at {when}{node}: {died.reason} "
+            '(docs/ns3.md, "Known ns-3 faults")'
+        )
+        return Ns3CrashError(message, died.reason, self.run_number, t, died.exit_code)

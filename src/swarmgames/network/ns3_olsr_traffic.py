@@ -10,8 +10,9 @@ message per packet, link messages grouped by link code) can be held against ns-3
   packet (a HELLO and a TC built together, a TC relayed while a send is pending), sharing one
   4-byte packet header and one 28-byte UDP/IP header.
 
-The C++ sink is compiled once per process with ``cppyy.cppdef`` (a trace source cannot call
-into Python without a round trip per packet).
+The C++ sink is compiled once per ns-3 process with ``cppyy.cppdef`` (a trace source cannot
+call into Python without a round trip per packet); :func:`compiled` and :func:`take_counts`
+are the ns-3 process's side (:mod:`swarmgames.network.ns3_worker`).
 
 References
 ----------
@@ -28,9 +29,8 @@ from typing import Any
 import numpy as np
 
 from swarmgames.arrays import freeze_fields
-from swarmgames.network.ns3_import import load_ns3, quiet_stderr
 
-__all__ = ["Ns3OlsrCounts", "Ns3OlsrTraffic"]
+__all__ = ["Ns3OlsrCounts", "Ns3OlsrTraffic", "compiled", "take_counts"]
 
 #: The counters, in the order of the C++ arrays.
 FIELDS = (
@@ -107,12 +107,21 @@ class OlsrTxCounter {
 """
 
 
-def _helper(ns: Any) -> Any:
-    """The compiled C++ namespace (compiled at the first call in the process)."""
+def compiled(ns: Any) -> Any:
+    """The compiled C++ namespace (compiled at the first call in the ns-3 process)."""
     if not hasattr(ns.cppyy.gbl, "swarmgames_ns3_olsr"):
-        with quiet_stderr():
-            ns.cppyy.cppdef(_CPP)
+        ns.cppyy.cppdef(_CPP)
     return ns.cppyy.gbl.swarmgames_ns3_olsr
+
+
+def take_counts(counter: Any, n: int) -> np.ndarray:
+    """The C++ counter's counts since the last call, shape (len(FIELDS), n), which then
+    restart (in the ns-3 process)."""
+    view = counter.Counts().data()
+    view.reshape((len(FIELDS) * n,))
+    counts = np.array(view, dtype=np.int64, copy=True).reshape(len(FIELDS), n)
+    counter.Clear()
+    return counts
 
 
 @dataclass(frozen=True, eq=False)
@@ -178,18 +187,10 @@ class Ns3OlsrTraffic:
     """
 
     def __init__(self, provider: Any) -> None:
-        ns = load_ns3()
-        nodes = provider.nodes
-        self.n_robots = int(nodes.GetN())
-        with quiet_stderr():
-            self._counter = _helper(ns).OlsrTxCounter(nodes)
+        self.provider = provider
+        self._id = provider.call("olsr_open")
 
     def take(self) -> Ns3OlsrCounts:
         """The counts since the previous call (or construction); the counters restart."""
-        n = self.n_robots
-        raw = self._counter.Counts()
-        view = raw.data()
-        view.reshape((len(FIELDS) * n,))
-        counts = np.array(view, dtype=np.int64, copy=True).reshape(len(FIELDS), n)
-        self._counter.Clear()
+        counts = self.provider.call("olsr_take", self._id)
         return Ns3OlsrCounts(**dict(zip(FIELDS, counts, strict=True)))

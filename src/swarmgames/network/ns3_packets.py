@@ -27,8 +27,11 @@ set to one irrespective of what is set in these socket options"), so the hops a 
 travelled ride beside the packet in an ns-3 packet tag, ``HopsTag``, which puts no bytes on the
 air; a real robot would read them from the IP TTL (``IP_RECVTTL``).
 
-The C++ part is compiled once per process with ``cppyy.cppdef`` (about 2 s): a receive
+The C++ part is compiled once per ns-3 process with ``cppyy.cppdef`` (about 2 s): a receive
 callback cannot be a Python function without a round trip into Python for every packet.
+:class:`StateFlood` sends its requests to the provider's ns-3 process
+(:mod:`swarmgames.network.ns3_process`); :func:`compiled`, :func:`schedule` and
+:func:`drain_events` are that process's side.
 
 References
 ----------
@@ -46,9 +49,16 @@ from typing import Any
 import numpy as np
 
 from swarmgames.arrays import freeze_fields
-from swarmgames.network.ns3_import import load_ns3, quiet_stderr
 
-__all__ = ["STATE_PORT", "PacketReceptions", "PacketTransmissions", "StateFlood"]
+__all__ = [
+    "STATE_PORT",
+    "PacketReceptions",
+    "PacketTransmissions",
+    "StateFlood",
+    "compiled",
+    "drain_events",
+    "schedule",
+]
 
 #: UDP port of the state messages (OLSR's is 698).
 STATE_PORT = 5800
@@ -206,12 +216,52 @@ class StateFlood {
 """
 
 
-def _helper(ns: Any) -> Any:
-    """The compiled C++ namespace (compiled at the first call in the process)."""
+def compiled(ns: Any) -> Any:
+    """The compiled C++ namespace (compiled at the first call in the ns-3 process)."""
     if not hasattr(ns.cppyy.gbl, "swarmgames_ns3"):
-        with quiet_stderr():
-            ns.cppyy.cppdef(_CPP)
+        ns.cppyy.cppdef(_CPP)
     return ns.cppyy.gbl.swarmgames_ns3
+
+
+def schedule(flood: Any, buffer, offsets, senders, links_indptr, links_indices, jitter) -> None:
+    """Hand the C++ ``StateFlood`` the links, the jitter and the messages of
+    :meth:`StateFlood.send` (in the ns-3 process)."""
+    n = int(np.asarray(senders).size)
+    flood.SetLinks(
+        np.ascontiguousarray(links_indptr, dtype=np.int64),
+        np.ascontiguousarray(links_indices, dtype=np.int64),
+    )
+    flood.SetJitter(np.ascontiguousarray(np.reshape(jitter, n * n), dtype=np.float64))
+    flood.Send(
+        np.ascontiguousarray(buffer, dtype=np.uint8),
+        np.ascontiguousarray(offsets, dtype=np.int64),
+        np.ascontiguousarray(senders, dtype=np.uint8),
+    )
+
+
+#: The C++ ``StateFlood``'s event vectors and their dtypes, as :func:`drain_events` reads them.
+_EVENTS = {
+    "rx_receiver": np.int64,
+    "rx_transmitter": np.int64,
+    "rx_sender": np.int64,
+    "rx_hops": np.int64,
+    "rx_time": np.float64,
+    "rx_size": np.int64,
+    "rx_payload": np.uint8,
+    "tx_node": np.int64,
+    "tx_sender": np.int64,
+    "tx_relay": np.uint8,
+    "tx_size": np.int64,
+    "tx_time": np.float64,
+}
+
+
+def drain_events(flood: Any) -> dict[str, np.ndarray]:
+    """The C++ ``StateFlood``'s receptions and transmissions since the last call, as arrays
+    named as its vectors, which are then cleared (in the ns-3 process)."""
+    events = {name: _array(getattr(flood, name), dtype) for name, dtype in _EVENTS.items()}
+    flood.Clear()
+    return events
 
 
 def _array(vec: Any, dtype: Any) -> np.ndarray:
@@ -301,44 +351,32 @@ class StateFlood:
         nodes (by another open :class:`StateFlood`: close it first).
     ValueError
         If ``ttl`` is out of range.
+    Ns3CrashError
+        From :meth:`run_until` (and any method), if ns-3 aborts.
     """
 
     def __init__(self, provider: Any, ttl: int, port: int = STATE_PORT) -> None:
         if not 1 <= int(ttl) <= 255:
             raise ValueError(f"ttl must be in [1, 255] (got {ttl})")
-        self._ns = load_ns3()
         self.provider = provider
-        self._nodes = provider.nodes
-        self.n_robots = int(self._nodes.GetN())
         self.ttl = int(ttl)
-        try:
-            with quiet_stderr():
-                self._flood = _helper(self._ns).StateFlood(self._nodes, int(port), self.ttl)
-        except TypeError as exc:  # cppyy reports the C++ exception among the overloads
-            if "is taken" not in str(exc):
-                raise
-            raise RuntimeError(
-                f"UDP port {port} is taken on the provider's nodes: close() the StateFlood that "
-                "holds it (reset its communication model) first"
-            ) from None
+        self._id, self.n_robots = provider.call("flood_open", self.ttl, int(port))
+        self._scenario = provider.scenario
 
     @property
     def live(self) -> bool:
         """Whether the provider still runs the scenario these sockets were opened in."""
-        try:
-            return self.provider.nodes is self._nodes
-        except RuntimeError:
-            return False
+        return self.provider.scenario == self._scenario
 
     def close(self) -> None:
         """Close the sockets, freeing the port (nothing to do once the scenario is gone)."""
         if self.live:
-            self._flood.Close()
+            self.provider.call("flood_close", self._id)
 
     @property
     def now(self) -> float:
         """ns-3's clock, seconds."""
-        return float(self._ns.Simulator.Now().GetSeconds())
+        return float(self.provider.call("now"))
 
     def send(self, buffer, offsets, senders, links_indptr, links_indices, jitter) -> None:
         """Schedule one message per robot with ``senders`` true, from now on.
@@ -357,48 +395,38 @@ class StateFlood:
             ``jitter[v, s]``: how long robot v waits before it transmits s's message
             (``[s, s]``: the original), seconds, >= 0.
         """
-        n = self.n_robots
-        self._flood.SetLinks(
-            np.ascontiguousarray(links_indptr, dtype=np.int64),
-            np.ascontiguousarray(links_indices, dtype=np.int64),
-        )
-        self._flood.SetJitter(np.ascontiguousarray(np.reshape(jitter, n * n), dtype=np.float64))
-        self._flood.Send(
-            np.ascontiguousarray(buffer, dtype=np.uint8),
-            np.ascontiguousarray(offsets, dtype=np.int64),
-            np.ascontiguousarray(senders, dtype=np.uint8),
+        self.provider.call(
+            "flood_send",
+            self._id,
+            *(np.asarray(a) for a in (buffer, offsets, senders, links_indptr, links_indices)),
+            np.asarray(jitter, dtype=np.float64),
         )
 
     def run_until(self, ns3_time: float) -> None:
         """Run ns-3 until ``ns3_time`` (its own clock, seconds); the robots stay where the
         provider placed them."""
-        ns = self._ns
-        delay = round(ns3_time * 1e9) - ns.Simulator.Now().GetNanoSeconds()
-        if delay > 0:
-            with quiet_stderr():
-                ns.Simulator.Stop(ns.NanoSeconds(delay))
-                ns.Simulator.Run()
+        until = float(ns3_time) + self.provider.start_time
+        self.provider.call("step", round(ns3_time * 1e9), None, until=until)
 
     def drain(self) -> tuple[PacketReceptions, PacketTransmissions]:
         """The receptions and transmissions since the last call (and forget them)."""
-        f = self._flood
-        size = _array(f.rx_size, np.int64)
+        e = self.provider.call("flood_drain", self._id)
+        size = e["rx_size"]
         rx = PacketReceptions(
-            receiver=_array(f.rx_receiver, np.int64),
-            transmitter=_array(f.rx_transmitter, np.int64),
-            sender=_array(f.rx_sender, np.int64),
-            hops=_array(f.rx_hops, np.int64),
-            time=_array(f.rx_time, np.float64),
+            receiver=e["rx_receiver"],
+            transmitter=e["rx_transmitter"],
+            sender=e["rx_sender"],
+            hops=e["rx_hops"],
+            time=e["rx_time"],
             size=size,
-            payload=_array(f.rx_payload, np.uint8),
+            payload=e["rx_payload"],
             offsets=np.concatenate([[0], np.cumsum(size)]).astype(np.int64),
         )
         tx = PacketTransmissions(
-            node=_array(f.tx_node, np.int64),
-            sender=_array(f.tx_sender, np.int64),
-            relay=_array(f.tx_relay, np.uint8).astype(bool),
-            size=_array(f.tx_size, np.int64),
-            time=_array(f.tx_time, np.float64),
+            node=e["tx_node"],
+            sender=e["tx_sender"],
+            relay=e["tx_relay"].astype(bool),
+            size=e["tx_size"],
+            time=e["tx_time"],
         )
-        f.Clear()
         return rx, tx

@@ -24,14 +24,10 @@ them).
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import json
 import os
 import shutil
 import signal
-import sys
-import threading
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -40,6 +36,7 @@ from typing import Any
 from swarmgames.allocator import reuse_freed_memory
 from swarmgames.config import ScenarioConfig
 from swarmgames.errors import BackendUnavailableError, RunFolderError
+from swarmgames.lifetime import end_with
 from swarmgames.sim.signals import INTERRUPT_SIGNALS, signals_interrupt
 
 __all__ = ["EXECUTORS", "RunTask", "default_jobs", "execute", "import_ray", "run_tasks"]
@@ -226,33 +223,11 @@ def _init_worker(stop, pids, started, parent: int) -> None:
     ``swarmgames`` command does."""
     global _STOP, _STARTED
     _STOP, _STARTED = stop, started
-    _end_with(parent)
+    end_with(parent)
     reuse_freed_memory()
     for sig in (signal.SIGINT, *INTERRUPT_SIGNALS):
         signal.signal(sig, signal.SIG_IGN)
     pids.put(os.getpid())
-
-
-#: ``prctl`` option: the signal a process gets when its parent ends (Linux).
-_PR_SET_PDEATHSIG = 1
-#: How often a worker looks whether the sweep's process is still there, s.
-_PARENT_POLL_S = 0.5
-
-
-def _end_with(parent: int) -> None:
-    """Have this process killed when process ``parent`` ends: the kernel's parent-death
-    signal on Linux, and a thread that polls the parent's pid (macOS has no such signal;
-    on Linux it also covers a parent gone before the signal was set)."""
-    if sys.platform.startswith("linux"):
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
-
-
-def _watch_parent(parent: int) -> None:
-    while os.getppid() == parent:
-        time.sleep(_PARENT_POLL_S)
-    os.kill(os.getpid(), signal.SIGKILL)  # the sweep is gone: nobody reads this run's result
 
 
 def _run_in_worker(index: int, task: RunTask) -> dict[str, Any]:
