@@ -614,6 +614,56 @@ sample_option = click.option(
 )
 
 
+seeds_option = click.option(
+    "--seed",
+    "seeds",
+    type=click.IntRange(min=0, max=2**31 - 2),
+    multiple=True,
+    default=(0,),
+    show_default=True,
+    help="Seed of the run; repeat it for several runs (their files go into seed-<SEED>/).",
+)
+
+
+def _each_seed(folder, seeds: tuple[int, ...], one) -> None:
+    """``one(seed, run_folder) -> (summary line, failure)`` for every seed: with one seed into
+    ``folder`` itself, with several into ``folder/seed-<SEED>/``, listed in ``runs.csv``.
+
+    A run whose ns-3 aborted (``failure``: the one-line reason) has written what it
+    completed; it is reported in one line and the other seeds go on. Exit 1 if one failed.
+    """
+    from swarmgames.runfolder import RunFolder
+
+    seeds = tuple(dict.fromkeys(seeds))
+    rows, failed = [], 0
+    for seed in seeds:
+        sub = folder if len(seeds) == 1 else RunFolder(folder.path / f"seed-{seed}")
+        try:
+            line, failure = one(seed, sub)
+        finally:
+            if sub is not folder:
+                sub.close()
+        click.echo(line)
+        if failure is not None:
+            failed += 1
+            prefix = "Error" if len(seeds) == 1 else f"failed: seed {seed}"
+            click.secho(f"{prefix}: {failure}", fg="red", err=True)
+        rows.append(
+            {
+                "seed": seed,
+                "folder": "." if sub is folder else f"seed-{seed}",
+                "status": "complete" if failure is None else "failed",
+                "error": failure or "",
+            }
+        )
+    if len(seeds) > 1:
+        import pandas as pd
+
+        folder.write_csv("runs.csv", pd.DataFrame(rows))
+    if failed:
+        sys.exit(EXIT_FAILED)
+
+
 def _check_sampling(trace, sample_every: float) -> None:
     """--sample-every bounded before anything is allocated (a 1 ns period over an hour)."""
     from swarmgames.experiments.replay import check_sampling
@@ -628,7 +678,7 @@ def _check_sampling(trace, sample_every: float) -> None:
 @positions_option
 @click.option("--backend", type=click.Choice(BACKENDS), default="olsr", show_default=True)
 @sample_option
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@seeds_option
 @out_option
 @force_option
 @set_option
@@ -638,7 +688,7 @@ def replay(
     positions: Path,
     backend: str,
     sample_every: float,
-    seed: int,
+    seeds: tuple[int, ...],
     out: Path | None,
     force: bool,
     overrides: tuple[str, ...],
@@ -648,7 +698,9 @@ def replay(
     summary (summary.csv) and a plot.
 
     Radio and OLSR parameters come from the default scenario, changed with --set, e.g.
-    --set network.radio.tx_power_dbm=20.
+    --set network.radio.tx_power_dbm=20. With several --seed, each seed's files go into
+    seed-<SEED>/ and runs.csv lists the runs; a run whose ns-3 aborts keeps its samples, is
+    reported in one line, and the others go on (exit 1).
     """
     from swarmgames.config import resolve_scenario
     from swarmgames.experiments.replay import replay as replay_trace
@@ -658,22 +710,27 @@ def replay(
     trace = read_positions(positions)  # validate before creating the folder
     _check_sampling(trace, sample_every)
     folder = _open_run_folder(out, f"replay-{positions.stem}", force)
-    with _progress(f"replay ({backend})", not no_progress and _interactive()) as tick:
-        res = replay_trace(
-            trace,
-            backend,
-            sample_every=sample_every,
-            seed=seed,
-            config=cfg,
-            out=folder,
-            progress=tick,
+
+    def one(seed: int, sub) -> tuple[str, str | None]:
+        with _progress(f"replay ({backend})", not no_progress and _interactive()) as tick:
+            res = replay_trace(
+                trace,
+                backend,
+                sample_every=sample_every,
+                seed=seed,
+                config=cfg,
+                out=sub,
+                progress=tick,
+            )
+        s = res.summary
+        line = (
+            f"{backend}: {trace.n_robots} robots, {len(s)} samples, {len(res.hops)} routes; "
+            f"mean degree {s['mean_degree'].mean():.3f}, mean hops {s['mean_hops'].mean():.3f} "
+            f"-> {sub.path}/"
         )
-    s = res.summary
-    click.echo(
-        f"{backend}: {trace.n_robots} robots, {len(s)} samples, {len(res.hops)} routes; "
-        f"mean degree {s['mean_degree'].mean():.3f}, mean hops {s['mean_hops'].mean():.3f} "
-        f"-> {folder.path}/"
-    )
+        return line, res.failure
+
+    _each_seed(folder, seeds, one)
 
 
 @network.command()
@@ -710,7 +767,8 @@ def compare(
     """Run several backends on the same trace and report how far their routing tables agree.
 
     The first backend is the reference. Writes per_time.csv, confusion.csv, hops_<backend>.csv,
-    agreement.png and summary.json.
+    agreement.png and summary.json. A backend whose ns-3 aborts is reported and left out, the
+    others are compared (exit 1).
     """
     from swarmgames.config import resolve_scenario
     from swarmgames.experiments.compare import compare as compare_backends
@@ -737,7 +795,7 @@ def compare(
     table = Table(title=f"agreement with {summary['reference']} ({trace.n_robots} robots)")
     for col in ("backend", "all entries", "within 2 hops", "entries", "wall time (s)"):
         table.add_column(col, justify="right")
-    for name in names:
+    for name in res.backends:
         agree = summary["agreement"].get(name)
         table.add_row(
             name,
@@ -748,6 +806,10 @@ def compare(
         )
     _console().print(table)
     click.echo(f"Wrote {folder.path}/")
+    for name, why in res.failed.items():
+        click.secho(f"failed: {name}: {why}", fg="red", err=True)
+    if res.failed:
+        sys.exit(EXIT_FAILED)
 
 
 # ----------------------------------------------------------------------------- bench
@@ -955,7 +1017,7 @@ def comms() -> None:
 )
 @click.option("--hops", type=click.IntRange(min=1, max=16), default=2, show_default=True,
               help="h: the neighbourhood radius and the flood's TTL.")  # fmt: skip
-@click.option("--seed", type=click.IntRange(min=0, max=2**31 - 2), default=0, show_default=True)
+@seeds_option
 @out_option
 @force_option
 @set_option
@@ -966,7 +1028,7 @@ def comms_replay(
     backend: str,
     model: str | None,
     hops: int,
-    seed: int,
+    seeds: tuple[int, ...],
     out: Path | None,
     force: bool,
     overrides: tuple[str, ...],
@@ -977,7 +1039,9 @@ def comms_replay(
 
     Writes delivery.csv (hops,pairs,delivered,ratio,mean_age_ms), stages.csv (bytes per
     robot and the busiest robot's channel load per stage) and delivery.png. Radio, OLSR and
-    comms parameters come from the default scenario, changed with --set.
+    comms parameters come from the default scenario, changed with --set. With several --seed,
+    each seed's files go into seed-<SEED>/ and runs.csv lists the runs; a run whose ns-3
+    aborts keeps its stages, is reported in one line, and the others go on (exit 1).
     """
     from swarmgames.config import resolve_scenario
     from swarmgames.experiments.comms_replay import replay_comms
@@ -989,20 +1053,27 @@ def comms_replay(
     cfg = resolve_scenario(None, (*overrides, *extra))
     trace = read_positions(positions)  # validate before creating the folder
     folder = _open_run_folder(out, f"comms-replay-{positions.stem}", force)
-    with _progress(f"comms replay ({cfg.comms.model})", not no_progress and _interactive()) as tick:
-        res = replay_comms(trace, backend=backend, config=cfg, hops=hops, seed=seed, progress=tick)
-    res.write(folder)
-    d = res.delivery
-    by_hop = ", ".join(
-        f"{int(r.hops)} hop{'s' if r.hops > 1 else ''} {100 * r.ratio:.1f} % "
-        f"({r.mean_age_ms:.1f} ms)"
-        for r in d.itertuples()
-    )
-    click.echo(
-        f"{res.comms} on {backend}: {trace.n_robots} robots, {len(res.stages)} stages; "
-        f"delivered by the decision (age on arrival): {by_hop or 'no pairs'}; "
-        f"max channel load {res.stages['channel_load'].max():.2f} -> {folder.path}/"
-    )
+
+    def one(seed: int, sub) -> tuple[str, str | None]:
+        bar = _progress(f"comms replay ({cfg.comms.model})", not no_progress and _interactive())
+        with bar as tick:
+            res = replay_comms(
+                trace, backend=backend, config=cfg, hops=hops, seed=seed, progress=tick
+            )
+        res.write(sub)
+        by_hop = ", ".join(
+            f"{int(r.hops)} hop{'s' if r.hops > 1 else ''} {100 * r.ratio:.1f} % "
+            f"({r.mean_age_ms:.1f} ms)"
+            for r in res.delivery.itertuples()
+        )
+        line = (
+            f"{res.comms} on {backend}: {trace.n_robots} robots, {len(res.stages)} stages; "
+            f"delivered by the decision (age on arrival): {by_hop or 'no pairs'}; "
+            f"max channel load {res.stages['channel_load'].max():.2f} -> {sub.path}/"
+        )
+        return line, res.failure
+
+    _each_seed(folder, seeds, one)
 
 
 def main(argv: list[str] | None = None) -> None:

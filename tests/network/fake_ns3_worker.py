@@ -3,8 +3,10 @@
 It answers the same requests without ns-3: every robot is a 1-hop neighbour of every other,
 and nothing is ever sent. When a ``step`` reaches ``SWARMGAMES_FAKE_NS3_ABORT_S`` seconds of
 its clock, it writes the lines ns-3 3.44 wrote when it aborted in ``PhyEntity::
-StartReceivePreamble`` (docs/ns3.md, "Known ns-3 faults"), with that time stamp, and ends
-itself with SIGABRT, as ``std::terminate`` does. ``SWARMGAMES_FAKE_NS3_SAY`` is written to
+StartReceivePreamble`` (docs/ns3.md, "Known ns-3 faults"), with a time stamp 0.25 s before
+it, and ends itself with SIGABRT, as ``std::terminate`` does. With
+``SWARMGAMES_FAKE_NS3_ONCE`` set to a file name, only the first run aborts: the one that
+creates that file. ``SWARMGAMES_FAKE_NS3_SAY`` is written to
 standard error at start, beside a line of cppyy's chatter.
 
 Run as ``python -m tests.network.fake_ns3_worker FD PARENT_PID``.
@@ -57,11 +59,22 @@ class FakeServer:
         return self.scenario
 
     def step(self, scenario, stop_ns, positions) -> None:
-        if stop_ns >= self.abort_ns:
+        if stop_ns >= self.abort_ns and self._first():
             sys.stderr.write(ABORT.format(t=self.abort_ns / 1e9 - 0.25))
             sys.stderr.flush()
             os.abort()
         self.now_ns = max(self.now_ns, int(stop_ns))
+
+    @staticmethod
+    def _first() -> bool:
+        flag = os.environ.get("SWARMGAMES_FAKE_NS3_ONCE")
+        if not flag:
+            return True
+        try:
+            open(flag, "x").close()
+        except FileExistsError:
+            return False
+        return True
 
     def tables(self, scenario):
         owner, dest = np.divmod(np.arange(self.n * self.n), self.n)

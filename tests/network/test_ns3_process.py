@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from click.testing import CliRunner
 
@@ -196,3 +197,67 @@ def test_the_real_ns3_abort_on_a_channel_trace_is_reported_and_survived():
     pos = np.array([[0.0, 0, 0], [300, 0, 0], [600, 0, 0]])
     again.reset(pos)
     assert again.advance(30.0, pos).hop_matrix()[0].tolist() == [0, 1, 2]
+
+
+def _static_trace(tmp_path: Path, seconds: float) -> Path:
+    rows = [(t, i, 100.0 * i, 0.0, 30.0) for t in (0.0, seconds) for i in range(4)]
+    path = tmp_path / "static.csv"
+    pd.DataFrame(rows, columns=["t", "node", "x", "y", "z"]).to_csv(path, index=False)
+    return path
+
+
+@pytest.fixture
+def abort_once(fake_ns3, monkeypatch, tmp_path):
+    """Only the first ns-3 run of the test aborts (at 14.5 s of ns-3's clock)."""
+    monkeypatch.setenv("SWARMGAMES_FAKE_NS3_ONCE", str(tmp_path / "aborted"))
+
+
+def test_network_replay_reports_the_aborted_run_and_replays_the_others(abort_once, tmp_path):
+    out = tmp_path / "out"
+    res = CliRunner().invoke(
+        cli,
+        ["network", "replay", "--positions", str(_static_trace(tmp_path, 20.0)),
+         "--backend", "ns3", "--seed", "0", "--seed", "1", "--sample-every", "1",
+         "--out", str(out), "--no-progress"],
+    )  # fmt: skip
+    assert res.exit_code == 1, res.output
+    err = res.stderr.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("failed: seed 0: ns-3 aborted in its run ")
+    runs = pd.read_csv(out / "runs.csv")
+    assert runs["status"].tolist() == ["failed", "complete"]
+    assert runs["folder"].tolist() == ["seed-0", "seed-1"]
+    kept = pd.read_csv(out / "seed-0" / "summary.csv")["t"]
+    assert kept.tolist() == [float(t) for t in range(15)]  # the samples before the abort
+    assert pd.read_csv(out / "seed-1" / "summary.csv")["t"].max() == 20.0
+
+
+def test_comms_replay_keeps_the_stages_before_the_abort_and_goes_on(
+    abort_once, tmp_path, monkeypatch
+):
+    monkeypatch.setenv("SWARMGAMES_FAKE_NS3_ABORT_S", "22.5")  # stages from 20 s
+    out = tmp_path / "out"
+    res = CliRunner().invoke(
+        cli,
+        ["comms", "replay", "--positions", str(_static_trace(tmp_path, 24.0)),
+         "--backend", "ns3", "--seed", "3", "--seed", "4", "--out", str(out),
+         "--no-progress"],
+    )  # fmt: skip
+    assert res.exit_code == 1, res.output
+    assert "failed: seed 3: ns-3 aborted in its run 4 at t = 22.25 s" in res.stderr
+    assert pd.read_csv(out / "seed-3" / "stages.csv")["t"].tolist() == [20.0, 21.0, 22.0]
+    assert pd.read_csv(out / "seed-4" / "stages.csv")["t"].tolist() == [20.0, 21.0, 22.0, 23.0]
+    assert pd.read_csv(out / "runs.csv")["status"].tolist() == ["failed", "complete"]
+
+
+def test_network_compare_leaves_out_the_backend_whose_ns3_aborted(abort_once, tmp_path):
+    out = tmp_path / "out"
+    res = CliRunner().invoke(
+        cli,
+        ["network", "compare", "--positions", str(_static_trace(tmp_path, 20.0)),
+         "--backends", "olsr,ns3,ns3", "--sample-every", "1", "--out", str(out)],
+    )  # fmt: skip
+    assert res.exit_code == 1, res.output
+    assert "failed: ns3: ns-3 aborted in its run " in res.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["backends"] == ["olsr", "ns3#2"]
+    assert list(summary["failed"]) == ["ns3"]

@@ -22,6 +22,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from swarmgames.errors import Ns3CrashError
+
 __all__ = [
     "DELIVERY_COLUMNS",
     "CommsReplay",
@@ -111,12 +113,17 @@ class CommsReplay:
         ``channel_load`` (the busiest robot's, :func:`~swarmgames.comms.load.offered_load`).
     comms, backend : str
         The communication model and the network backend.
+    failure : str or None
+        Why the replay stopped before the trace's end (ns-3 aborted: the one-line
+        :class:`~swarmgames.errors.Ns3CrashError`), with the stages completed until then;
+        None for a replay that reached its end.
     """
 
     delivery: pd.DataFrame
     stages: pd.DataFrame
     comms: str
     backend: str
+    failure: str | None = None
 
     def plot(self) -> Figure:
         """Delivery by the decision and mean age on arrival against the hop distance."""
@@ -161,14 +168,16 @@ def replay_delivery(
     warmup_s: float = 20.0,
     period_s: float = 1.0,
     progress: Callable[[float, float], None] | None = None,
-) -> tuple[pd.DataFrame, pd.DataFrame]:
+) -> tuple[pd.DataFrame, pd.DataFrame, str | None]:
     """Replay ``trace`` through ``provider`` and let ``comms`` deliver a state message from
     every robot each control period from ``warmup_s`` on (module docstring).
 
     Returns
     -------
     (delivery, stages) : DataFrames
-        See :class:`CommsReplay`.
+        See :class:`CommsReplay`: of the stages completed.
+    failure : str or None
+        The one-line :class:`~swarmgames.errors.Ns3CrashError` if ns-3 aborted, else None.
     """
     counter = DeliveryCounter(hops, decide_after_s)
     stages = _stage_times(trace, warmup_s, period_s)
@@ -177,24 +186,29 @@ def replay_delivery(
     rows = []
     moves = trace.times
     now = trace.start
-    for t in stages:
-        for tt in moves[(moves > now) & (moves < t)]:
-            provider.advance(float(tt), trace.at(tt))
-        snap = provider.advance(float(t), trace.at(t))
-        now = float(t)
-        _, stats = comms.exchange(float(t), snap, trace.at(t), rng)
-        counter.add(float(t), snap, comms.table)
-        load = stats.channel_load[np.isfinite(stats.channel_load)]
-        rows.append(
-            {
-                "t": float(t),
-                "bytes_per_robot": float(np.mean(stats.bytes_sent + stats.bytes_forwarded)),
-                "channel_load": float(load.max()) if load.size else float("nan"),
-            }
-        )
-        if progress is not None:
-            progress(float(t), float(stages[-1]))
-    return counter.frame(), pd.DataFrame(rows, columns=["t", "bytes_per_robot", "channel_load"])
+    failure = None
+    try:
+        for t in stages:
+            for tt in moves[(moves > now) & (moves < t)]:
+                provider.advance(float(tt), trace.at(tt))
+            snap = provider.advance(float(t), trace.at(t))
+            now = float(t)
+            _, stats = comms.exchange(float(t), snap, trace.at(t), rng)
+            counter.add(float(t), snap, comms.table)
+            load = stats.channel_load[np.isfinite(stats.channel_load)]
+            rows.append(
+                {
+                    "t": float(t),
+                    "bytes_per_robot": float(np.mean(stats.bytes_sent + stats.bytes_forwarded)),
+                    "channel_load": float(load.max()) if load.size else float("nan"),
+                }
+            )
+            if progress is not None:
+                progress(float(t), float(stages[-1]))
+    except Ns3CrashError as exc:  # keep the stages completed
+        failure = str(exc)
+    columns = ["t", "bytes_per_robot", "channel_load"]
+    return counter.frame(), pd.DataFrame(rows, columns=columns), failure
 
 
 def replay_comms(
@@ -227,6 +241,7 @@ def replay_comms(
     Returns
     -------
     CommsReplay
+        If ns-3 aborts, the stages completed until then, with the reason in ``failure``.
 
     Raises
     ------
@@ -268,7 +283,7 @@ def replay_comms(
         provider = provider_from_config(cfg.network, trace.n_robots, rng)
     comms = comms_from_config(cfg, 3, provider)
     try:
-        delivery, stages = replay_delivery(
+        delivery, stages, failure = replay_delivery(
             trace,
             provider,
             comms,
@@ -282,7 +297,7 @@ def replay_comms(
     finally:
         if backend == "ns3":  # the ns-3 simulator's nodes and sockets
             provider.close()
-    return CommsReplay(delivery, stages, cfg.comms.model, backend)
+    return CommsReplay(delivery, stages, cfg.comms.model, backend, failure)
 
 
 def replay_recording(folder, *, comms: str = "csma", seed: int = 0, overrides=()) -> pd.DataFrame:
@@ -313,7 +328,7 @@ def replay_recording(folder, *, comms: str = "csma", seed: int = 0, overrides=()
     frames = []
     for run in rec.runs:
         model = comms_from_config(cfg, int(meta["state_dim"]), None)
-        delivery, _ = replay_delivery(
+        delivery, _, _ = replay_delivery(
             trace,
             rec.provider(run=run),
             model,

@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 
 from swarmgames.config import NetworkConfig
-from swarmgames.errors import ConfigError
+from swarmgames.errors import ConfigError, SwarmgamesError
 from swarmgames.experiments.replay import replay
 from swarmgames.network.factory import BACKENDS
 from swarmgames.network.propagation import new_shadowing_key
@@ -117,6 +117,9 @@ class CompareResult:
     wall_time_s : dict of str to float
         Wall-clock time of each backend's replay, seconds (building the provider, which for
         ns-3 includes importing it, is not counted).
+    failed : dict of str to str
+        Backends left out because their replay stopped (ns-3 aborted), with the reason; the
+        others are compared as if they had not been asked for.
     """
 
     backends: tuple[str, ...]
@@ -128,6 +131,7 @@ class CompareResult:
     per_time: pd.DataFrame
     confusion: pd.DataFrame
     wall_time_s: dict[str, float] = field(default_factory=dict)
+    failed: dict[str, str] = field(default_factory=dict)
 
     def to_frame(self) -> pd.DataFrame:
         """Per-time agreement (a copy of :attr:`per_time`)."""
@@ -186,6 +190,7 @@ class CompareResult:
             else None,
             "warmup_s": self.warmup_s,
             "wall_time_s": dict(self.wall_time_s),
+            "failed": dict(self.failed),
             "agreement": {
                 b: {
                     "overall": self.agreement(b),
@@ -321,11 +326,14 @@ def compare(
     Returns
     -------
     CompareResult
+        A backend whose replay stopped (ns-3 aborted) is left out and listed in ``failed``.
 
     Raises
     ------
     ValueError
         If fewer than two backends are given or ``sample_every`` / ``warmup_s`` is invalid.
+    SwarmgamesError
+        If fewer than two backends are left once those that failed are left out.
     ConfigError
         For an unknown backend name (the message suggests close matches).
     BackendUnavailableError
@@ -372,6 +380,7 @@ def compare(
     labels = _labels([b if isinstance(b, str) else b.name for b in backends])
     hops: dict[str, pd.DataFrame] = {}
     wall: dict[str, float] = {}
+    failed: dict[str, str] = {}
     for label, backend in zip(labels, backends, strict=True):
         if isinstance(backend, str):
             cfg = (config or NetworkConfig()).model_copy(update={"backend": backend})
@@ -382,9 +391,18 @@ def compare(
             )
         start = _time.perf_counter()
         result = replay(trace, backend, sample_every)
+        if result.failure is not None:
+            failed[label] = result.failure
+            continue
         wall[label] = _time.perf_counter() - start
         hops[label] = result.hops
-    samples = result.summary["t"].to_numpy(dtype=float)
+        samples = result.summary["t"].to_numpy(dtype=float)
+    labels = tuple(label for label in labels if label not in failed)
+    if len(labels) < 2:
+        raise SwarmgamesError(
+            "fewer than two backends left to compare: "
+            + "; ".join(f"{k}: {v}" for k, v in failed.items())
+        )
 
     t0 = float(trace.times[0])
     per_rows, conf_rows = [], []
@@ -418,4 +436,6 @@ def compare(
     confusion = pd.concat(conf_rows, ignore_index=True).astype(
         {"hops_reference": int, "hops_backend": int, "count": int}
     )
-    return CompareResult(labels, n, samples, t0, float(warmup_s), hops, per_time, confusion, wall)
+    return CompareResult(
+        labels, n, samples, t0, float(warmup_s), hops, per_time, confusion, wall, failed
+    )

@@ -19,12 +19,23 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from swarmgames.config import NetworkConfig
+from swarmgames.errors import Ns3CrashError
 from swarmgames.network.provider import NeighbourhoodProvider
 from swarmgames.network.trace import PositionTrace, read_positions
 from swarmgames.sim.providers import provider_from_config
 from swarmgames.topology import TopologySnapshot
 
-__all__ = ["MAX_HOP_ROWS", "ReplayResult", "check_sampling", "replay", "summarise"]
+__all__ = [
+    "MAX_HOP_ROWS",
+    "SUMMARY_COLUMNS",
+    "ReplayResult",
+    "check_sampling",
+    "replay",
+    "summarise",
+]
+
+#: The columns of a replay's per-sample summary (:func:`summarise`).
+SUMMARY_COLUMNS = ["t", "mean_degree", "mean_hops", "max_hops", "components", "routes"]
 
 #: Most rows of a replay's hop table (every sample's routes, about 1 GB with the snapshots).
 MAX_HOP_ROWS = 50_000_000
@@ -61,11 +72,16 @@ class ReplayResult:
         Columns ``t, mean_degree, mean_hops, max_hops, components, routes``, one row per sample.
     backend : str
         Name of the provider.
+    failure : str or None
+        Why the replay stopped before the trace's end (ns-3 aborted: the one-line
+        :class:`~swarmgames.errors.Ns3CrashError`), with the samples taken until then; None
+        for a replay that reached its end.
     """
 
     hops: pd.DataFrame
     summary: pd.DataFrame
     backend: str
+    failure: str | None = None
 
     def plot(self):
         """Figure with mean degree, mean hop count and number of components against time."""
@@ -171,6 +187,8 @@ def replay(
     Returns
     -------
     ReplayResult
+        If ns-3 aborts, the samples taken until then, with the reason in ``failure`` (and
+        written to ``out``).
 
     Raises
     ------
@@ -204,18 +222,22 @@ def replay(
     frames, rows = [], []
     if trace.start in sample_set:
         frames.append(snap)
-    for t in breaks[breaks > trace.start]:
-        held = trace.at(np.nextafter(t, -np.inf))
-        if float(t) in sample_set:
-            (step or provider.advance)(float(t), held)
-            # The row starting at t holds at t (zero-length step: no OLSR events happen).
-            frames.append(provider.advance(float(t), trace.at(t)))
-            if progress is not None:
-                progress(float(t), stop)
-        elif step is not None:
-            step(float(t), held)
-        else:
-            provider.advance(float(t), held)
+    failure = None
+    try:
+        for t in breaks[breaks > trace.start]:
+            held = trace.at(np.nextafter(t, -np.inf))
+            if float(t) in sample_set:
+                (step or provider.advance)(float(t), held)
+                # The row starting at t holds at t (zero-length step: no OLSR events happen).
+                frames.append(provider.advance(float(t), trace.at(t)))
+                if progress is not None:
+                    progress(float(t), stop)
+            elif step is not None:
+                step(float(t), held)
+            else:
+                provider.advance(float(t), held)
+    except Ns3CrashError as exc:  # keep the samples taken
+        failure = str(exc)
     for s in frames:
         rows.append(summarise(s))
     hops = pd.DataFrame(
@@ -227,7 +249,7 @@ def replay(
             "hops": np.concatenate([s.hops for s in frames]).astype(np.int16),
         }
     )
-    result = ReplayResult(hops, pd.DataFrame(rows), provider.name)
+    result = ReplayResult(hops, pd.DataFrame(rows, columns=SUMMARY_COLUMNS), provider.name, failure)
     if out is not None:
         result.write(out)
     return result
