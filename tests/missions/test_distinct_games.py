@@ -192,3 +192,18 @@ def test_the_next_batch_takes_the_carried_game_bit_for_bit(monkeypatch, moved):
     unary, table = pot.unary(second), pot.pair_table(second)
     assert np.array_equal(unary, expect[1][0]) and np.array_equal(table, expect[1][1])
     assert tables == ([1] if moved else []) and grids == [1 if moved else 0]
+
+
+@pytest.mark.parametrize("kept", [False, True])
+def test_whole_grid_owner_unary_equals_the_unarys_owner_rows(kept):
+    # The ex-post regret reads variable 0 of games whose members all differ in state; the
+    # whole-grid unary computes only those rows, from a field kept from the stage's games
+    # (kept) or computed anew, and must give unary(batch)[:, 0] bit for bit.
+    batch, pot = _dense(7, None, "auto")
+    for game in range(batch.n_games):
+        batch = _moved(batch, game)
+    want = pot.unary(batch)[:, 0]
+    _, fresh = _dense(7, None, "auto")
+    if kept:
+        fresh.unary(batch)  # holds a field of every position the owners' rows need
+    np.testing.assert_array_equal(fresh.owner_unary(batch), want)

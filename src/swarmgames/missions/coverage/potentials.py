@@ -352,14 +352,22 @@ class CoveragePotentials:
     def owner_unary(self, batch) -> np.ndarray:
         """:math:`\\phi_u` of every game's variable 0 only, (B, A): ``unary(batch)[:, 0]``
         bit for bit, for the measurements that read only the owner's row (the global
-        regret). The compiled windowed kernel computes only those rows; the other paths
-        compute every row."""
-        compiled = self.signal_floor_dbm is not None and self._compiled
+        regret, the ex-post regret). The whole-grid integral and the compiled windowed
+        kernel compute only those rows; the other paths compute every row."""
+        whole = self.signal_floor_dbm is None
+        compiled = whole or self._compiled
         if not compiled or (self._crowding_on and self.separation_mode == "unary"):
             return self.unary(batch)[:, 0]
         mask, amask, states, nxt = _batch_arrays(batch)
         if amask.shape[0] == 0:
             return np.zeros(amask.shape[::2])
+        if whole:
+            # Each game's owner deviates against its own others: no two games are equal.
+            out = np.zeros(amask.shape)
+            self._full_grid(out, mask, amask, states, nxt, owner_only=True)
+            out = out[:, 0]
+            out[~amask[:, 0]] = 0.0
+            return out
         ids = _state_ids(batch)
         owner = np.zeros(mask.shape, dtype=bool)
         owner[:, 0] = True
@@ -409,9 +417,12 @@ class CoveragePotentials:
             state_ids=ids,
         )
 
-    def _full_grid(self, out, mask, amask, states, nxt) -> None:
-        """Eq. 4 over the whole ROI grid, written into ``out`` (B, K, A)."""
+    def _full_grid(self, out, mask, amask, states, nxt, owner_only: bool = False) -> None:
+        """Eq. 4 over the whole ROI grid, written into ``out`` (B, K, A); ``owner_only``:
+        variable 0's rows alone (the others stay as they are), each the same floats as in a
+        whole evaluation (the same (A, G) @ (G,) product per variable)."""
         B, K, A = amask.shape
+        rows = 1 if owner_only else K
         # One signal field per distinct position of the whole batch.
         cur_rows = np.where(mask[..., None], states, 0.0).reshape(-1, 3)
         nxt_rows = np.where(amask[..., None], nxt, 0.0).reshape(-1, 3)
@@ -422,23 +433,29 @@ class CoveragePotentials:
         nxt_idx = inv[B * K :].reshape(B, K, A)
         w = self.roi.weights.astype(np.float32)
         G = w.size
-        step = max(1, self.chunk_elems // max(1, K * A * G))
+        step = max(1, self.chunk_elems // max(1, rows * A * G))
         # A game whose (K, A, G) block alone exceeds the chunk takes its variables in slices.
-        kstep = K if step > 1 else max(1, self.chunk_elems // max(1, A * G))
+        kstep = rows if step > 1 else max(1, self.chunk_elems // max(1, A * G))
         neg = np.float32(-np.inf)
         for lo in range(0, B, step):
             hi = min(B, lo + step)
             cur = np.where(mask[lo:hi, :, None], fields[cur_idx[lo:hi]], neg)  # (b, K, G)
-            best_k = np.argmax(cur, axis=1)  # (b, G)
-            best = np.take_along_axis(cur, best_k[:, None, :], axis=1)  # (b, 1, G)
-            rest = cur.copy()
-            np.put_along_axis(rest, best_k[:, None, :], neg, axis=1)
-            second = rest.max(axis=1, keepdims=True)  # (b, 1, G)
-            del cur, rest
-            for k0 in range(0, K, kstep):
-                k1 = min(K, k0 + kstep)
-                holds_best = best_k[:, None, :] == np.arange(k0, k1)[None, :, None]
-                other = np.where(holds_best, second, best)  # (b, k, G): max over l != k
+            if owner_only:  # max over l != 0 (a max is exact: the floats of the other path)
+                tail = cur[:, 1:] if K > 1 else np.full_like(cur, neg)
+                spans = [(0, 1, tail.max(axis=1, keepdims=True))]
+            else:
+                best_k = np.argmax(cur, axis=1)  # (b, G)
+                best = np.take_along_axis(cur, best_k[:, None, :], axis=1)  # (b, 1, G)
+                rest = cur.copy()
+                np.put_along_axis(rest, best_k[:, None, :], neg, axis=1)
+                second = rest.max(axis=1, keepdims=True)  # (b, 1, G)
+                del rest
+                spans = [(k0, min(K, k0 + kstep), None) for k0 in range(0, K, kstep)]
+            del cur
+            for k0, k1, other in spans:
+                if other is None:
+                    holds_best = best_k[:, None, :] == np.arange(k0, k1)[None, :, None]
+                    other = np.where(holds_best, second, best)  # (b, k, G): max over l != k
                 f = fields[nxt_idx[lo:hi, k0:k1]]  # (b, k, A, G)
                 o = other[:, :, None, :]
                 val = np.maximum(f, o)
@@ -451,14 +468,27 @@ class CoveragePotentials:
         """The signal of every position at every ROI cell, (U, G) float32; the last batch's
         fields (up to ``_KEPT_FIELD_BYTES``) are kept and given back for the same positions
         (a stage's batches of a dense swarm hold the same robots: one field instead of one
-        per batch)."""
+        per batch), and so are their rows for positions among the kept ones (the ex-post
+        games stand every robot where one of its actions of the stage's games took it). A
+        field's rows are computed cell by cell, so a kept row is the row computed anew
+        (tested)."""
         key = positions.tobytes()
         held = self._last_fields
-        if held is not None and held[0] == key:
-            return held[1]
+        if held is not None:
+            held_key, index, held_fields = held
+            if held_key == key:
+                return held_fields
+            rows = [index.get(p.tobytes(), -1) for p in positions]
+            if min(rows, default=0) >= 0:
+                fields = held_fields[rows]
+                fields.flags.writeable = False
+                return fields
         fields = self.signal.field(positions, self.roi.points)
         fields.flags.writeable = False
-        self._last_fields = (key, fields) if fields.nbytes <= _KEPT_FIELD_BYTES else None
+        self._last_fields = None
+        if fields.nbytes <= _KEPT_FIELD_BYTES:
+            index = {p.tobytes(): i for i, p in enumerate(positions)}
+            self._last_fields = (key, index, fields)
         return fields
 
     def _crowding(self, mask, states, nxt) -> np.ndarray:
