@@ -423,17 +423,23 @@ class CoveragePotentials:
         whole evaluation (the same (A, G) @ (G,) product per variable)."""
         B, K, A = amask.shape
         rows = 1 if owner_only else K
-        # One signal field per distinct position of the whole batch.
-        cur_rows = np.where(mask[..., None], states, 0.0).reshape(-1, 3)
-        nxt_rows = np.where(amask[..., None], nxt, 0.0).reshape(-1, 3)
-        uniq, inv = np.unique(np.concatenate([cur_rows, nxt_rows]), axis=0, return_inverse=True)
-        inv = inv.reshape(-1)
+        # One signal field per distinct position of the batch's variables and valid actions
+        # (a padded variable's or an invalid action's entries read field 0: they are masked
+        # out, and a (G,) product row does not depend on the other rows).
+        valid = np.concatenate([mask.reshape(-1), amask.reshape(-1)])
+        rows_xyz = np.concatenate([states.reshape(-1, 3), nxt.reshape(-1, 3)])[valid]
+        inv = np.zeros(valid.size, dtype=np.intp)
+        if rows_xyz.shape[0]:
+            uniq, inv[valid] = np.unique(rows_xyz, axis=0, return_inverse=True)
+        else:
+            uniq = np.zeros((1, 3))
         fields = self._fields(uniq)  # (U, G) float32
         cur_idx = inv[: B * K].reshape(B, K)
         nxt_idx = inv[B * K :].reshape(B, K, A)
         w = self.roi.weights.astype(np.float32)
         G = w.size
-        step = max(1, self.chunk_elems // max(1, rows * A * G))
+        # A chunk bounds both its (b, rows, A, G) values and its (b, K, G) current signals.
+        step = max(1, self.chunk_elems // max(1, max(rows * A, K) * G))
         # A game whose (K, A, G) block alone exceeds the chunk takes its variables in slices.
         kstep = rows if step > 1 else max(1, self.chunk_elems // max(1, A * G))
         neg = np.float32(-np.inf)
