@@ -643,8 +643,10 @@ class CoveragePotentials:
         if ids is None:
             return None
         mask, amask, states, nxt = _batch_arrays(batch)
-        values = (states, nxt, amask)
         b, k, a = amask.shape
+        if not np.any(mask.sum(axis=1) * a >= HELD_SHARE_MIN):
+            return None  # no game large enough to share a table: no need to group them
+        values = (states, nxt, amask)
         carry = self._pair_carry
         same, off = self._groups(carry, batch, ids, mask, values)
         if same is None:
@@ -728,6 +730,38 @@ class CoveragePotentials:
                 lambda g: carry.computed if off and g == 0 else out[g - off],
             )  # fmt: skip
         return out
+
+    def owner_pair_table(self, batch, dtype=np.float64) -> np.ndarray | None:
+        """Row 0 of :meth:`pair_table`, ``(B, A, K, A)``: ``pair_table(batch, dtype)[:, 0]``
+        bit for bit (every float64 entry is computed from its two points alone, the crowding
+        penalty of each pair of variables alike), for the measurements that read only the
+        owners' rows (the global and ex-post regret); None for float32 (its squared
+        distances come from one product per game, whose rows are not computed alone)."""
+        dtype = np.dtype(dtype)
+        if dtype != np.float64:
+            return None
+        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+        B, K, A = nxt.shape[:3]
+        pts = nxt.reshape(B, K * A, 3)
+        out = np.empty((B, A, K * A), dtype=dtype)
+        step = max(1, self.chunk_elems // 4 // max(1, A * K * A))
+        sig = self.signal
+        for lo in range(0, B, step):
+            p = pts[lo : lo + step]
+            q = p[:, :A]
+            diff = q[:, :, None, 0] - p[:, None, :, 0]
+            d2 = diff * diff
+            for c in (1, 2):
+                diff = q[:, :, None, c] - p[:, None, :, c]
+                d2 += diff * diff
+            val = sig.power_sq(d2.astype(dtype, copy=False), dtype=dtype.type)
+            np.add(val, val, out=out[lo : lo + step])
+        if self._crowding_on and self.separation_mode == "pairwise":
+            scale = 2.0 * self.separation_cost_db * self.roi.mass / self.alpha_b
+            table = out.reshape(B, A, K, A)
+            for gb, _, gl, pen in crowding_blocks(batch, self.separation_m, first_only=True):
+                table[gb, :, gl, :] -= (scale * pen).astype(out.dtype)
+        return out.reshape(B, A, K, A)
 
     def _pair_table(self, batch, dtype, games=None) -> np.ndarray:
         """:meth:`pair_table` of every game of ``batch``, each computed; ``games`` (float64
