@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -501,3 +502,38 @@ def test_a_setting_without_effect_is_one_line_naming_both_fields(runner):
     assert res.exit_code == 2
     assert "comms.loss_rate" in res.output and "comms.model = 'ideal'" in res.output
     assert "(got 0.4)" in res.output and len(res.output.strip().splitlines()) == 1
+
+
+def _command(*args: str, code: str | None = None) -> subprocess.CompletedProcess:
+    from pathlib import Path
+
+    import swarmgames
+
+    tree = str(Path(swarmgames.__file__).resolve().parents[1])
+    argv = ["-c", code] if code is not None else ["-m", "swarmgames"]
+    return subprocess.run(
+        [sys.executable, *argv, *args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "PYTHONPATH": tree},
+    )
+
+
+def test_the_command_ends_with_its_status_and_all_its_output(tmp_path):
+    # python -m swarmgames ends without the interpreter's teardown: the same status, every
+    # line flushed, exit handlers run.
+    ok = _command("--version")
+    assert ok.returncode == 0 and ok.stdout.startswith("swarmgames, version")
+    bad = _command("config", "check", str(tmp_path / "missing.toml"))
+    assert bad.returncode == 2 and "Error" in bad.stderr
+    # Called from code, a command's SystemExit comes back to the caller.
+    code = (
+        "import atexit, sys\nfrom swarmgames.cli import main\n"
+        "atexit.register(lambda: print('handler ran'))\n"
+        "try:\n    main(['--version'])\nexcept SystemExit as exc:\n"
+        "    print('caught', exc.code)\nsys.exit(3)\n"
+    )
+    res = _command(code=code)
+    assert res.returncode == 3
+    assert res.stdout.splitlines()[-2:] == ["caught 0", "handler ran"]

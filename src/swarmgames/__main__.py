@@ -3,4 +3,4 @@
 from swarmgames.cli import main
 
 if __name__ == "__main__":
-    main()
+    main(quick_exit=True)

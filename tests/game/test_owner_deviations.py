@@ -68,6 +68,9 @@ def test_coverage_potentials(scenario, overrides):
         ("coverage-large", ["swarm.n_robots=80", "coverage.kernel='numpy'"]),
         ("coverage-large", ["swarm.n_robots=80", "coverage.separation_mode='unary'"]),
         ("coverage", ["swarm.n_robots=20", "network.backend='oracle'"]),  # full grid
+        # the pairwise crowding penalty off, and games weighted by their size
+        ("coverage", ["swarm.n_robots=20", "coverage.separation_m=0.0"]),
+        ("coverage", ["swarm.n_robots=20", "game.pair_weighting='mean'"]),
     ],
 )
 def test_owner_payoffs_are_the_owner_rows_of_the_whole_evaluation(scenario, overrides):
@@ -89,9 +92,41 @@ def test_owner_payoffs_are_the_owner_rows_of_the_whole_evaluation(scenario, over
     rows = owner_payoffs(batch, mission.potentials, g.alpha_a, g.alpha_b, dtype=g.dtype)
     assert rows.unary.dtype == whole.unary.dtype
     np.testing.assert_array_equal(rows.unary, whole.unary)
+    if whole.pair is not None:  # the owners' table rows alone: the same bits (signs of 0 too)
+        assert rows.pair.dtype == whole.pair.dtype
+        assert rows.pair.tobytes() == whole.pair.tobytes()
     rng = np.random.default_rng(2)
     actions = np.array([rng.choice(np.flatnonzero(m)) for m in batch.action_mask[:, 0]])
     np.testing.assert_array_equal(global_regret(rows, actions), global_regret(whole, actions))
     np.testing.assert_array_equal(
         mission.potentials.owner_unary(batch), mission.potentials.unary(batch)[:, 0]
     )
+
+
+@pytest.mark.parametrize("overrides", [[], ["swarm.n_robots=20", "network.backend='oracle'"]])
+def test_ex_post_owner_rows_are_those_of_the_whole_evaluation(overrides):
+    # The ex-post games hold every member but the owner at one action: the owners' rows
+    # (the table's row 0 alone, the owners' unary alone) give the whole evaluation's bits.
+    from swarmgames.game import expost_games
+    from swarmgames.game.equilibrium import OwnerPayoffs, owner_payoffs
+    from swarmgames.game.potentials import evaluate_payoffs
+
+    cfg = resolve_scenario("coverage", overrides)
+    mission = build_mission(cfg)
+    states, loop, _ = build_loop(cfg, mission, None)
+    loop.start(states)
+    loop.step()
+    view = loop.observe()
+    messages = broadcast(view.snapshot, cfg.network.hops, view.states)
+    rng = np.random.default_rng(3)
+    n = view.states.shape[0]
+    nxt = np.asarray(mission.action_model.apply(view.states[:, None]))[:, 0]
+    reached = nxt[np.arange(n), rng.integers(0, nxt.shape[1], n)]
+    batch = expost_games(messages.views(), reached, mission.action_model)
+    g = cfg.game
+    whole = OwnerPayoffs.of(
+        evaluate_payoffs(batch, mission.potentials, g.alpha_a, g.alpha_b, dtype=g.dtype)
+    )
+    rows = owner_payoffs(batch, mission.potentials, g.alpha_a, g.alpha_b, dtype=g.dtype)
+    assert rows.unary.tobytes() == whole.unary.tobytes()
+    assert rows.pair.tobytes() == whole.pair.tobytes()

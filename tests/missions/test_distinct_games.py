@@ -192,3 +192,46 @@ def test_the_next_batch_takes_the_carried_game_bit_for_bit(monkeypatch, moved):
     unary, table = pot.unary(second), pot.pair_table(second)
     assert np.array_equal(unary, expect[1][0]) and np.array_equal(table, expect[1][1])
     assert tables == ([1] if moved else []) and grids == [1 if moved else 0]
+
+
+@pytest.mark.parametrize("kept", [False, True])
+def test_whole_grid_owner_unary_equals_the_unarys_owner_rows(kept):
+    # The ex-post regret reads variable 0 of games whose members all differ in state; the
+    # whole-grid unary computes only those rows, from a field kept from the stage's games
+    # (kept) or computed anew, and must give unary(batch)[:, 0] bit for bit.
+    batch, pot = _dense(7, None, "auto")
+    for game in range(batch.n_games):
+        batch = _moved(batch, game)
+    want = pot.unary(batch)[:, 0]
+    _, fresh = _dense(7, None, "auto")
+    if kept:
+        fresh.unary(batch)  # holds a field of every position the owners' rows need
+    np.testing.assert_array_equal(fresh.owner_unary(batch), want)
+
+
+def test_the_ex_post_games_take_the_stages_field_and_its_floats(monkeypatch):
+    # The ex-post games stand every robot where one of its actions took it and mask the
+    # other members' actions but one: their positions are the stage's, so the owners' rows
+    # read the field kept from the stage's unary (no new field), bit for bit the rows of a
+    # field computed for them alone.
+    from swarmgames.game import expost_games
+    from swarmgames.game.local import broadcast
+
+    n = 7
+    cov = {"move_cost_db": 0.0, "signal_floor_dbm": None}
+    mission = build(parse_config({"swarm": {"n_robots": n}, "coverage": cov}))
+    pos = np.random.default_rng(5).uniform(-60, 60, size=(n, 2))
+    states = np.column_stack([pos, np.full(n, 50.0)])
+    snap = disk_snapshot(pos, 1000.0)
+    stage = local_games(snap, 1, states, mission.action_model)
+    actions = np.arange(n) % mission.action_model.n_actions
+    nxt = np.asarray(stage.next_states)[np.arange(n), 0, actions]
+    expost = expost_games(broadcast(snap, 1, states).views(np.arange(n)), nxt, mission.action_model)
+    want = mission.potentials.owner_unary(expost)
+    pot = build(parse_config({"swarm": {"n_robots": n}, "coverage": cov})).potentials
+    pot.unary(stage)
+    calls = []
+    field = type(pot.signal).field
+    monkeypatch.setattr(type(pot.signal), "field", lambda *a: calls.append(1) or field(*a))
+    np.testing.assert_array_equal(pot.owner_unary(expost), want)
+    assert calls == []

@@ -43,3 +43,15 @@ def test_squared_distance_form_agrees():
 def test_bad_parameters(kwargs, match):
     with pytest.raises(ValueError, match=match):
         SignalModel(**kwargs)
+
+
+def test_a_fields_rows_are_the_rows_computed_alone():
+    # The whole-grid unary gives back kept rows of an earlier field for positions it held:
+    # each row must be the floats a field of that position alone has.
+    rng = np.random.default_rng(3)
+    uav = np.column_stack([rng.uniform(-900, 900, (37, 2)), rng.uniform(10, 120, 37)])
+    ground = rng.uniform(-1000, 1000, (1001, 2))
+    s = SignalModel()
+    whole = s.field(uav, ground)
+    for rows in ([5], [0, 36], list(range(3, 20, 4)), list(range(37))[::-1]):
+        np.testing.assert_array_equal(whole[rows], s.field(uav[rows], ground))

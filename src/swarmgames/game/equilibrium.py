@@ -34,7 +34,13 @@ import numpy as np
 from swarmgames.arrays import freeze_fields
 from swarmgames.errors import PayoffError
 from swarmgames.game.batch import LocalGameBatch
-from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
+from swarmgames.game.potentials import (
+    GamePayoffs,
+    Potentials,
+    evaluate_payoffs,
+    pair_weights,
+    weighted_owner_rows,
+)
 
 __all__ = [
     "OwnerPayoffs",
@@ -266,6 +272,17 @@ class _PairOnly:
         return getattr(self.potentials, name)
 
 
+class _SourceOnly(_PairOnly):
+    """``potentials`` without their unary and with only their pair source: an evaluation
+    whose pairwise part is the source, or nothing (the owners' table rows are then asked
+    for separately)."""
+
+    pair_table = None
+
+    def pairwise(self, batch: LocalGameBatch) -> None:
+        return None
+
+
 def owner_payoffs(
     batch: LocalGameBatch,
     potentials: Potentials,
@@ -282,7 +299,9 @@ def owner_payoffs(
     Potentials with the optional ``owner_unary(batch) -> (B, A)`` method (φ_u of variable 0
     only, equal to ``unary(batch)[:, 0]``) are asked for the owners' unary alone (the coverage
     potentials then integrate one variable per game instead of K); others are evaluated
-    whole.
+    whole. Those with ``owner_pair_table(batch, dtype) -> (B, A, K, A)`` (row 0 of
+    ``pair_table``, or None) are asked for the owners' pairwise rows alone where they give
+    no pair source for the batch (one row of the table instead of K).
 
     Raises
     ------
@@ -295,9 +314,22 @@ def owner_payoffs(
             batch, potentials, alpha_a, alpha_b, dtype=dtype, pair_weighting=pair_weighting
         )
         return OwnerPayoffs.of(whole)
-    pay = evaluate_payoffs(
-        batch, _PairOnly(potentials), alpha_a, alpha_b, dtype=dtype, pair_weighting=pair_weighting
-    )
+    kw = {"dtype": dtype, "pair_weighting": pair_weighting}
+    rows = None
+    rows_fn = getattr(potentials, "owner_pair_table", None)
+    if callable(rows_fn) and alpha_b > 0 and batch.pair_mask is None:
+        # The pair source where the potentials give one, else the owners' table rows alone.
+        pay = evaluate_payoffs(batch, _SourceOnly(potentials), alpha_a, alpha_b, **kw)
+        if pay.pair_source is None:
+            dt = np.dtype(dtype)
+            table = rows_fn(batch, dt)
+            if table is not None:
+                w = pair_weights(batch, alpha_b, pair_weighting)
+                rows = OwnerPayoffs.of(pay)
+                rows = replace(rows, pair=weighted_owner_rows(batch, table, w, dt))
+    if rows is None:
+        pay = evaluate_payoffs(batch, _PairOnly(potentials), alpha_a, alpha_b, **kw)
+        rows = OwnerPayoffs.of(pay)
     amask = np.asarray(batch.action_mask)[:, 0]
     u = np.asarray(owner_fn(batch))
     if u.shape != amask.shape:
@@ -311,7 +343,6 @@ def owner_payoffs(
         )
     dt = np.dtype(dtype)
     unary = np.where(amask, u, 0.0).astype(dt, copy=False) * dt.type(alpha_a)
-    rows = OwnerPayoffs.of(pay)
     return OwnerPayoffs(
         unary, rows.pair, rows.action_mask, rows.mask, rows.owner, rows.members, rows.pair_source
     )

@@ -9,8 +9,10 @@ entries, or one game when a single game is larger):
   games, or :data:`~swarmgames.game.meanfield.SOURCE_CHUNK_ELEMS` entries) and the batch's
   rows of them at a profile, ``B K² A`` entries, which then bound the batch;
 * the largest working blocks: the unary integral's (before the pairwise table exists), the
-  pairwise potentials' (beside it) or the measurement's gathers of it (beside it); the
-  mission says how much its potentials need (``unary_bytes``, ``pair_work_bytes``);
+  pairwise potentials' (beside it), the measurement's gathers of it (beside it) or the
+  owners' rows of the global and ex-post regret (beside a table); the mission says how much
+  its potentials need and keep (``unary_bytes``, ``pair_work_bytes``,
+  ``owner_unary_bytes``);
 * for the global regret, every robot's owner row until the joint action is known,
   ``N K A²`` entries;
 * the centralised game (one game of ``(N A)²`` entries, built through the dense
@@ -100,6 +102,7 @@ def stage_memory(
     centralised: bool = False,
     unary_bytes: float = 0.0,
     pair_work_bytes: float = 0.0,
+    owner_unary_bytes: float = 0.0,
     max_pair_elems: int | None = None,
     pair_on_demand: bool = False,
     held_sharing: int | None = None,
@@ -125,6 +128,9 @@ def stage_memory(
     unary_bytes, pair_work_bytes : float, default 0
         The potentials' working memory for one batch, bytes: of the unary (the coverage
         integral's chunks) and beside the pairwise table (the crowding penalty's blocks).
+    owner_unary_bytes : float, default 0
+        The potentials' working memory for the owners' rows of one batch (the ex-post and
+        global regret's ``owner_unary``), which run beside that batch's pairwise table.
     max_pair_elems : int, optional
         The stage's batch budget (default :data:`~swarmgames.game.stage.MAX_PAIR_ELEMS`).
     pair_on_demand : bool, default False
@@ -168,9 +174,14 @@ def stage_memory(
             rows = equal * held / a * _HELD_ROW_BYTES
             if equal > games and 2 * per_game * itemsize + rows > table + gathers:
                 games, table, gathers = equal, 2 * per_game * itemsize, rows
-    # The unary integral runs before the pairwise table exists; the pairwise blocks and the
-    # measurement's gathers each run beside it.
-    work = max(float(unary_bytes) - table, float(pair_work_bytes), gathers)
+    # The unary integral runs before the pairwise table exists; the pairwise blocks, the
+    # measurement's gathers and the owners' rows of the regrets each run beside it.
+    work = max(
+        float(unary_bytes) - table,
+        float(owner_unary_bytes),
+        float(pair_work_bytes),
+        gathers,
+    )
     parts = {
         "pairwise tables of one batch": table,
         "working blocks (unary integral, pairwise blocks or measurement)": work,

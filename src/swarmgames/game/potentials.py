@@ -91,9 +91,11 @@ class Potentials(Protocol):
     (:func:`~swarmgames.game.stage.size_groups`), so that games holding the same robots
     fall in one batch and share their tables (``PairSource.shared``).
 
-    Optional owner-only form: ``owner_unary(batch) -> (B, A)``, φ_u of every game's
-    variable 0 alone, equal to ``unary(batch)[:, 0]`` bit for bit; the global regret, which
-    reads only the owners' rows of the true games, uses it
+    Optional owner-only forms: ``owner_unary(batch) -> (B, A)``, φ_u of every game's
+    variable 0 alone, equal to ``unary(batch)[:, 0]`` bit for bit, and
+    ``owner_pair_table(batch, dtype) -> (B, A, K, A)`` (or ``None``), equal to
+    ``pair_table(batch, dtype)[:, 0]`` bit for bit; the global and ex-post regret, which
+    read only the owners' rows, use them
     (:func:`~swarmgames.game.equilibrium.owner_payoffs`).
     """
 
@@ -499,6 +501,32 @@ def _check_pair_finite(
             f"{_where(batch, gb, gk)}, action {at['a']}, with variable {gl} "
             f"(robot {int(batch.members[gb, gl])}), action {at['c']}"
         )
+
+
+def weighted_owner_rows(batch: LocalGameBatch, rows, weights, dtype) -> np.ndarray:
+    """Row 0 of :func:`weighted_pair_table`, bit for bit, from ``rows``, row 0 of the
+    table (``pair_table(batch, dtype)[:, 0]``, shape ``(B, A, K, A)``): each entry is scaled
+    alike (in place when ``rows`` is the caller's own C-contiguous array of ``dtype``)."""
+    b, k, a = batch.n_games, batch.n_vars, batch.n_actions
+    w = np.asarray(rows)
+    if w.shape != (b, a, k, a):
+        raise ValueError(f"owner_pair_table must have shape {(b, a, k, a)} (got {w.shape})")
+    amask = batch.action_mask
+    vp = batch.valid_pairs()[:, 0]
+    own = w.dtype == dtype and w.flags.writeable and w.flags.c_contiguous
+    if own and np.isfinite(np.add.reduce(w, axis=None)):
+        per_game = weights[:, None, None, None]
+        w *= np.where(vp[:, None, :, None] & amask[:, 0, :, None, None], per_game, 0.0).astype(
+            dtype
+        )
+        w *= amask[:, None, :, :]
+        return w
+    valid = vp[:, None, :, None] & amask[:, 0, :, None, None] & amask[:, None, :, :]
+    _check_pair_finite(batch, w[:, None], valid[:, None], layout="bkalc")
+    pair = np.zeros((b, a, k, a), dtype=dtype)
+    per_game = weights.astype(dtype)[:, None, None, None]
+    np.multiply(w, per_game, out=pair, where=valid, casting="unsafe")
+    return pair
 
 
 def weighted_pair_table(batch: LocalGameBatch, table_fn, weights, dtype) -> np.ndarray | None:

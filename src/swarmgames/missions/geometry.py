@@ -86,7 +86,9 @@ def close_pairs(positions, distance_m: float) -> int:
 CROWDING_CHUNK_ELEMS = 2_000_000
 
 
-def crowding_blocks(batch, distance_m: float, max_elems: int = CROWDING_CHUNK_ELEMS):
+def crowding_blocks(
+    batch, distance_m: float, max_elems: int = CROWDING_CHUNK_ELEMS, *, first_only: bool = False
+):
     """The crowding penalty :math:`\\max(0, 1 - \\lVert p_k(a) - p_l(c) \\rVert / d)^2` of
     every pair of distinct valid variables of a game that can come within ``d`` of each
     other, for every pair of their actions, in chunks of pairs.
@@ -107,6 +109,9 @@ def crowding_blocks(batch, distance_m: float, max_elems: int = CROWDING_CHUNK_EL
         d, the distance below which next positions are penalised, metres (> 0).
     max_elems : int, default CROWDING_CHUNK_ELEMS
         Most penalty entries ``P A²`` per chunk (at least one pair per chunk).
+    first_only : bool, default False
+        Only the pairs whose first variable is variable 0 (the owner's rows), each with the
+        values it has among all pairs.
 
     Yields
     ------
@@ -124,7 +129,10 @@ def crowding_blocks(batch, distance_m: float, max_elems: int = CROWDING_CHUNK_EL
     amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
     disp = np.linalg.norm(nxt - states[:, :, None, :], axis=-1)
     s_max = float(disp[amask].max(initial=0.0))
-    gb, gk, gl = np.nonzero(mask[:, :, None] & mask[:, None, :] & ~np.eye(k, dtype=bool))
+    pairs = mask[:, :, None] & mask[:, None, :] & ~np.eye(k, dtype=bool)
+    if first_only:
+        pairs[:, 1:] = False
+    gb, gk, gl = np.nonzero(pairs)
     gap = np.linalg.norm(states[gb, gk] - states[gb, gl], axis=-1)
     near = gap < distance_m + 2.0 * s_max + 1e-9
     gb, gk, gl = gb[near], gk[near], gl[near]

@@ -1,15 +1,6 @@
 """Simulation layer: the stage loop, controllers, run results and their files."""
 
-from swarmgames.sim.controllers import (
-    GameController,
-    LloydController,
-    make_controller,
-    solver_from_config,
-)
-from swarmgames.sim.loop import StageLog, oscillation, run_stages
-from swarmgames.sim.providers import provider_from_config
-from swarmgames.sim.result import RunResult
-from swarmgames.sim.runner import NotResumableError, build_mission, resume, run
+from importlib import import_module
 
 __all__ = [
     "GameController",
@@ -26,3 +17,35 @@ __all__ = [
     "run_stages",
     "solver_from_config",
 ]
+
+#: Where each public name lives: imported on first use, so that importing a light submodule
+#: (``swarmgames.sim.signals``, as a sweep's own process does) loads no mission, game or
+#: compiled kernel.
+_HOMES = {
+    "GameController": "controllers",
+    "LloydController": "controllers",
+    "make_controller": "controllers",
+    "solver_from_config": "controllers",
+    "StageLog": "loop",
+    "oscillation": "loop",
+    "run_stages": "loop",
+    "provider_from_config": "providers",
+    "RunResult": "result",
+    "NotResumableError": "runner",
+    "build_mission": "runner",
+    "resume": "runner",
+    "run": "runner",
+}
+
+
+def __getattr__(name: str):
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(f"{__name__}.{home}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

@@ -170,11 +170,13 @@ def _one_hop_size(config, mission) -> int:
     return neighbourhood_size(config.model_copy(update=update), mission)
 
 
-def _potentials_bytes(mission, k: int, a: int, games: int, n: int) -> tuple[float, float]:
-    """Working memory of the mission's potentials for one batch, ``(unary, pairwise)``
-    bytes: the coverage integral's chunks and its crowding blocks; for other potentials
-    one more pairwise table beside the table."""
-    from swarmgames.missions.coverage.potentials import CoveragePotentials
+def _potentials_bytes(mission, k: int, a: int, games: int, n: int) -> tuple[float, float, float]:
+    """Working memory of the mission's potentials for one batch, ``(unary, owner_unary,
+    pairwise)`` bytes: the coverage integral's chunks and its crowding blocks (the unary of
+    the stage's games, before their table exists), the owners' rows of the ex-post and
+    global regret (beside a table) and the pairwise blocks; for other potentials one more
+    pairwise table beside the table."""
+    from swarmgames.missions.coverage.potentials import _KEPT_FIELD_BYTES, CoveragePotentials
     from swarmgames.missions.geometry import CROWDING_CHUNK_ELEMS
 
     pot = getattr(mission, "potentials", None)
@@ -182,8 +184,9 @@ def _potentials_bytes(mission, k: int, a: int, games: int, n: int) -> tuple[floa
     entries = float(games) * k * k * a * a
     crowding = min(entries, CROWDING_CHUNK_ELEMS) * 8.0 * _CROWDING_COPIES
     if not isinstance(pot, CoveragePotentials):
-        return 0.0, entries * 8.0 + crowding
+        return 0.0, 0.0, entries * 8.0 + crowding
     g = pot.roi.n_cells
+    chunk = float(pot.chunk_elems)
     if pot.signal_floor_dbm is not None:
         # The windowed integral: each variable's disc of cells within the floor's reach
         # (plus the move and the window's margin), not the whole ROI.
@@ -191,18 +194,33 @@ def _potentials_bytes(mission, k: int, a: int, games: int, n: int) -> tuple[floa
 
         reach = math.sqrt(floor_distance_sq(pot.signal, pot.signal_floor_dbm))
         g = min(g, int(math.pi * (reach / pot.roi.cell_m + 3.0) ** 2))
-    block = min(float(games) * k * a * g, max(float(pot.chunk_elems), float(a * g)))
-    fields = min(games * k, n) * (a + 1) * float(g)
-    best = 2.0 * min(float(games), max(1.0, pot.chunk_elems / max(1, k * a * g))) * k * g
-    unary = 4.0 * (_UNARY_COPIES * block + fields + best)
-    if pot.signal_floor_dbm is not None and pot.kernel != "numpy":
-        # The compiled kernel's table of states' signals kept across batches: at most
-        # signal_table_elems values, two states per id (2 N + 2 ids).
-        unary += 4.0 * min(float(pot.signal_table_elems), 2.0 * (2 * n + 2) * a * g)
+        fields = min(games * k, n) * (a + 1) * float(g)
+        block = min(float(games) * k * a * g, max(chunk, float(a * g)))
+        best = 2.0 * min(float(games), max(1.0, chunk / max(1, k * a * g))) * k * g
+        unary = 4.0 * (_UNARY_COPIES * block + fields + best)
+        owner = 0.0
+        if pot.kernel != "numpy":
+            # The compiled kernel's table of states' signals kept across batches: at most
+            # signal_table_elems values, two states per id (2 N + 2 ids).
+            unary += 4.0 * min(float(pot.signal_table_elems), 2.0 * (2 * n + 2) * a * g)
+    else:
+        # The whole grid. Games that hold every robot (K = N) hold the same states under
+        # exact delivery and are integrated once; the others each (in chunks). The owners'
+        # rows (ex-post and global regret) take chunks of games of (1, A, G) values and
+        # (K, G) current signals, from the positions' fields (kept ones gathered by position),
+        # and the last field (up to _KEPT_FIELD_BYTES) is kept from one batch to the next.
+        distinct = 1 if k >= n else games
+        fields = min(games * k, n) * (a + 1) * float(g)
+        block = min(float(distinct) * k * a * g, max(chunk, float(a * g)))
+        best = 2.0 * min(float(distinct), max(1.0, chunk // max(1, k * a * g))) * k * g
+        kept = min(4.0 * fields, float(_KEPT_FIELD_BYTES))
+        unary = 4.0 * (_UNARY_COPIES * block + fields + best) + kept
+        rows = min(float(games), max(1.0, chunk // max(1, max(a, k) * g)))
+        owner = 4.0 * (_UNARY_COPIES * rows * a * g + 2.0 * rows * k * g + fields) + kept
     pair = 8.0 * _PAIR_COPIES * min(entries, max(pot.chunk_elems / 4, k * a))
     if pot.separation_m > 0 and pot.separation_cost_db > 0:
         pair += crowding
-    return unary, pair
+    return unary, owner, pair
 
 
 def _pairs_on_demand(config, mission) -> bool:
@@ -257,7 +275,7 @@ def estimate_memory(config, mission=None, *, whole_run: bool = True) -> MemoryEs
         "held_sharing": None if centralised else _held_sharing(config, mission),
     }
     first = stage_memory(n, k, a, **kwargs)
-    unary, pair_work = _potentials_bytes(mission, first.n_vars, a, first.batch_games, n)
+    unary, owner, pair_work = _potentials_bytes(mission, first.n_vars, a, first.batch_games, n)
     est = stage_memory(
         n,
         k,
@@ -266,6 +284,7 @@ def estimate_memory(config, mission=None, *, whole_run: bool = True) -> MemoryEs
         global_regret=config.sim.global_regret and not lloyd,
         centralised=centralised,
         unary_bytes=unary,
+        owner_unary_bytes=owner if config.sim.global_regret else 0.0,  # the ex-post's too
         pair_work_bytes=pair_work,
     )
     if not whole_run:

@@ -292,8 +292,7 @@ class RunResult:
 
         ``progress``, if given, is called as ``progress(done, total)`` after each figure and
         each frame of the animation (one unit each); ``figures=False`` writes the summary
-        alone (the runs of a sweep)."""
-        from swarmgames.sim.animation import render_gif
+        alone (the runs of a sweep), without importing matplotlib."""
 
         def tick(done: int, total: int) -> None:
             if progress is not None:
@@ -309,6 +308,8 @@ class RunResult:
             written.append(folder.save_figure("paths.png", fig))
             tick(2, total)
             if animation:
+                from swarmgames.sim.animation import render_gif
+
                 cap = int(1e6 * self.config.sim.animation_max_mb)
                 gif = render_gif(
                     self, frames, max_bytes=cap, progress=lambda k, m: tick(2 + k, 2 + m)

@@ -10,10 +10,7 @@ a factor's levels on the same seeds, and plots (docs/sweep.md).
 * :mod:`~swarmgames.experiments.sweep.run`: :func:`sweep`, resuming, the sweep's files.
 """
 
-from swarmgames.experiments.sweep.grid import factors_from_assignments, plan_sweep
-from swarmgames.experiments.sweep.plots import plot_metric
-from swarmgames.experiments.sweep.run import sweep, write_tables
-from swarmgames.experiments.sweep.stats import aggregate, paired_differences
+from importlib import import_module
 
 __all__ = [
     "aggregate",
@@ -24,3 +21,29 @@ __all__ = [
     "sweep",
     "write_tables",
 ]
+
+#: Where each public name lives: imported on first use, so that a sweep's worker process,
+#: which imports only :mod:`~swarmgames.experiments.sweep.executors`, loads neither pandas'
+#: statistics nor matplotlib.
+_HOMES = {
+    "aggregate": "stats",
+    "factors_from_assignments": "grid",
+    "paired_differences": "stats",
+    "plan_sweep": "grid",
+    "plot_metric": "plots",
+    "sweep": "run",
+    "write_tables": "run",
+}
+
+
+def __getattr__(name: str):
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(f"{__name__}.{home}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+from scipy.special import stdtrit
 
 __all__ = [
     "META",
@@ -139,7 +139,8 @@ def describe(frame: pd.DataFrame, keys: list[str], figures: list[str]) -> pd.Dat
         .sort_values(["_group", "metric"], kind="stable")
     )
     n = out["n"].to_numpy()
-    t = stats.t.ppf(0.5 + LEVEL / 2, np.maximum(n - 1, 1))
+    # Student's t quantile (what scipy.stats.t.ppf computes, without importing scipy.stats).
+    t = stdtrit(np.maximum(n - 1, 1), 0.5 + LEVEL / 2)
     half = np.where(n >= 2, t * out["std"].to_numpy() / np.sqrt(np.maximum(n, 1)), np.nan)
     out = out.assign(
         metric=out["metric"].astype(str),

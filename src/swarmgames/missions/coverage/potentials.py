@@ -352,14 +352,22 @@ class CoveragePotentials:
     def owner_unary(self, batch) -> np.ndarray:
         """:math:`\\phi_u` of every game's variable 0 only, (B, A): ``unary(batch)[:, 0]``
         bit for bit, for the measurements that read only the owner's row (the global
-        regret). The compiled windowed kernel computes only those rows; the other paths
-        compute every row."""
-        compiled = self.signal_floor_dbm is not None and self._compiled
+        regret, the ex-post regret). The whole-grid integral and the compiled windowed
+        kernel compute only those rows; the other paths compute every row."""
+        whole = self.signal_floor_dbm is None
+        compiled = whole or self._compiled
         if not compiled or (self._crowding_on and self.separation_mode == "unary"):
             return self.unary(batch)[:, 0]
         mask, amask, states, nxt = _batch_arrays(batch)
         if amask.shape[0] == 0:
             return np.zeros(amask.shape[::2])
+        if whole:
+            # Each game's owner deviates against its own others: no two games are equal.
+            out = np.zeros(amask.shape)
+            self._full_grid(out, mask, amask, states, nxt, owner_only=True)
+            out = out[:, 0]
+            out[~amask[:, 0]] = 0.0
+            return out
         ids = _state_ids(batch)
         owner = np.zeros(mask.shape, dtype=bool)
         owner[:, 0] = True
@@ -409,36 +417,51 @@ class CoveragePotentials:
             state_ids=ids,
         )
 
-    def _full_grid(self, out, mask, amask, states, nxt) -> None:
-        """Eq. 4 over the whole ROI grid, written into ``out`` (B, K, A)."""
+    def _full_grid(self, out, mask, amask, states, nxt, owner_only: bool = False) -> None:
+        """Eq. 4 over the whole ROI grid, written into ``out`` (B, K, A); ``owner_only``:
+        variable 0's rows alone (the others stay as they are), each the same floats as in a
+        whole evaluation (the same (A, G) @ (G,) product per variable)."""
         B, K, A = amask.shape
-        # One signal field per distinct position of the whole batch.
-        cur_rows = np.where(mask[..., None], states, 0.0).reshape(-1, 3)
-        nxt_rows = np.where(amask[..., None], nxt, 0.0).reshape(-1, 3)
-        uniq, inv = np.unique(np.concatenate([cur_rows, nxt_rows]), axis=0, return_inverse=True)
-        inv = inv.reshape(-1)
+        rows = 1 if owner_only else K
+        # One signal field per distinct position of the batch's variables and valid actions
+        # (a padded variable's or an invalid action's entries read field 0: they are masked
+        # out, and a (G,) product row does not depend on the other rows).
+        valid = np.concatenate([mask.reshape(-1), amask.reshape(-1)])
+        rows_xyz = np.concatenate([states.reshape(-1, 3), nxt.reshape(-1, 3)])[valid]
+        inv = np.zeros(valid.size, dtype=np.intp)
+        if rows_xyz.shape[0]:
+            uniq, inv[valid] = np.unique(rows_xyz, axis=0, return_inverse=True)
+        else:
+            uniq = np.zeros((1, 3))
         fields = self._fields(uniq)  # (U, G) float32
         cur_idx = inv[: B * K].reshape(B, K)
         nxt_idx = inv[B * K :].reshape(B, K, A)
         w = self.roi.weights.astype(np.float32)
         G = w.size
-        step = max(1, self.chunk_elems // max(1, K * A * G))
+        # A chunk bounds both its (b, rows, A, G) values and its (b, K, G) current signals.
+        step = max(1, self.chunk_elems // max(1, max(rows * A, K) * G))
         # A game whose (K, A, G) block alone exceeds the chunk takes its variables in slices.
-        kstep = K if step > 1 else max(1, self.chunk_elems // max(1, A * G))
+        kstep = rows if step > 1 else max(1, self.chunk_elems // max(1, A * G))
         neg = np.float32(-np.inf)
         for lo in range(0, B, step):
             hi = min(B, lo + step)
             cur = np.where(mask[lo:hi, :, None], fields[cur_idx[lo:hi]], neg)  # (b, K, G)
-            best_k = np.argmax(cur, axis=1)  # (b, G)
-            best = np.take_along_axis(cur, best_k[:, None, :], axis=1)  # (b, 1, G)
-            rest = cur.copy()
-            np.put_along_axis(rest, best_k[:, None, :], neg, axis=1)
-            second = rest.max(axis=1, keepdims=True)  # (b, 1, G)
-            del cur, rest
-            for k0 in range(0, K, kstep):
-                k1 = min(K, k0 + kstep)
-                holds_best = best_k[:, None, :] == np.arange(k0, k1)[None, :, None]
-                other = np.where(holds_best, second, best)  # (b, k, G): max over l != k
+            if owner_only:  # max over l != 0 (a max is exact: the floats of the other path)
+                tail = cur[:, 1:] if K > 1 else np.full_like(cur, neg)
+                spans = [(0, 1, tail.max(axis=1, keepdims=True))]
+            else:
+                best_k = np.argmax(cur, axis=1)  # (b, G)
+                best = np.take_along_axis(cur, best_k[:, None, :], axis=1)  # (b, 1, G)
+                rest = cur.copy()
+                np.put_along_axis(rest, best_k[:, None, :], neg, axis=1)
+                second = rest.max(axis=1, keepdims=True)  # (b, 1, G)
+                del rest
+                spans = [(k0, min(K, k0 + kstep), None) for k0 in range(0, K, kstep)]
+            del cur
+            for k0, k1, other in spans:
+                if other is None:
+                    holds_best = best_k[:, None, :] == np.arange(k0, k1)[None, :, None]
+                    other = np.where(holds_best, second, best)  # (b, k, G): max over l != k
                 f = fields[nxt_idx[lo:hi, k0:k1]]  # (b, k, A, G)
                 o = other[:, :, None, :]
                 val = np.maximum(f, o)
@@ -451,14 +474,27 @@ class CoveragePotentials:
         """The signal of every position at every ROI cell, (U, G) float32; the last batch's
         fields (up to ``_KEPT_FIELD_BYTES``) are kept and given back for the same positions
         (a stage's batches of a dense swarm hold the same robots: one field instead of one
-        per batch)."""
+        per batch), and so are their rows for positions among the kept ones (the ex-post
+        games stand every robot where one of its actions of the stage's games took it). A
+        field's rows are computed cell by cell, so a kept row is the row computed anew
+        (tested)."""
         key = positions.tobytes()
         held = self._last_fields
-        if held is not None and held[0] == key:
-            return held[1]
+        if held is not None:
+            held_key, index, held_fields = held
+            if held_key == key:
+                return held_fields
+            rows = [index.get(p.tobytes(), -1) for p in positions]
+            if min(rows, default=0) >= 0:
+                fields = held_fields[rows]
+                fields.flags.writeable = False
+                return fields
         fields = self.signal.field(positions, self.roi.points)
         fields.flags.writeable = False
-        self._last_fields = (key, fields) if fields.nbytes <= _KEPT_FIELD_BYTES else None
+        self._last_fields = None
+        if fields.nbytes <= _KEPT_FIELD_BYTES:
+            index = {p.tobytes(): i for i, p in enumerate(positions)}
+            self._last_fields = (key, index, fields)
         return fields
 
     def _crowding(self, mask, states, nxt) -> np.ndarray:
@@ -607,8 +643,10 @@ class CoveragePotentials:
         if ids is None:
             return None
         mask, amask, states, nxt = _batch_arrays(batch)
-        values = (states, nxt, amask)
         b, k, a = amask.shape
+        if not np.any(mask.sum(axis=1) * a >= HELD_SHARE_MIN):
+            return None  # no game large enough to share a table: no need to group them
+        values = (states, nxt, amask)
         carry = self._pair_carry
         same, off = self._groups(carry, batch, ids, mask, values)
         if same is None:
@@ -692,6 +730,38 @@ class CoveragePotentials:
                 lambda g: carry.computed if off and g == 0 else out[g - off],
             )  # fmt: skip
         return out
+
+    def owner_pair_table(self, batch, dtype=np.float64) -> np.ndarray | None:
+        """Row 0 of :meth:`pair_table`, ``(B, A, K, A)``: ``pair_table(batch, dtype)[:, 0]``
+        bit for bit (every float64 entry is computed from its two points alone, the crowding
+        penalty of each pair of variables alike), for the measurements that read only the
+        owners' rows (the global and ex-post regret); None for float32 (its squared
+        distances come from one product per game, whose rows are not computed alone)."""
+        dtype = np.dtype(dtype)
+        if dtype != np.float64:
+            return None
+        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+        B, K, A = nxt.shape[:3]
+        pts = nxt.reshape(B, K * A, 3)
+        out = np.empty((B, A, K * A), dtype=dtype)
+        step = max(1, self.chunk_elems // 4 // max(1, A * K * A))
+        sig = self.signal
+        for lo in range(0, B, step):
+            p = pts[lo : lo + step]
+            q = p[:, :A]
+            diff = q[:, :, None, 0] - p[:, None, :, 0]
+            d2 = diff * diff
+            for c in (1, 2):
+                diff = q[:, :, None, c] - p[:, None, :, c]
+                d2 += diff * diff
+            val = sig.power_sq(d2.astype(dtype, copy=False), dtype=dtype.type)
+            np.add(val, val, out=out[lo : lo + step])
+        if self._crowding_on and self.separation_mode == "pairwise":
+            scale = 2.0 * self.separation_cost_db * self.roi.mass / self.alpha_b
+            table = out.reshape(B, A, K, A)
+            for gb, _, gl, pen in crowding_blocks(batch, self.separation_m, first_only=True):
+                table[gb, :, gl, :] -= (scale * pen).astype(out.dtype)
+        return out.reshape(B, A, K, A)
 
     def _pair_table(self, batch, dtype, games=None) -> np.ndarray:
         """:meth:`pair_table` of every game of ``batch``, each computed; ``games`` (float64
