@@ -1,6 +1,6 @@
 """``python -m swarmgames``: the same as the ``swarmgames`` command."""
 
-from swarmgames.cli import main
+from swarmgames.cli import script
 
 if __name__ == "__main__":
-    main(quick_exit=True)
+    script()

@@ -25,7 +25,7 @@ from swarmgames.errors import (
 )
 from swarmgames.names import BACKENDS, COMMS_MODELS
 
-__all__ = ["cli", "main"]
+__all__ = ["cli", "main", "script"]
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -1076,17 +1076,15 @@ def comms_replay(
     _each_seed(folder, seeds, one)
 
 
-def main(argv: list[str] | None = None, *, quick_exit: bool | None = None) -> None:
-    """Console-script entry point. The process keeps freed memory for reuse
+def main(argv: list[str] | None = None, *, quick_exit: bool = False) -> None:
+    """Run the command line. The process keeps freed memory for reuse
     (:func:`swarmgames.allocator.reuse_freed_memory`) unless ``SWARMGAMES_MALLOC=system``.
 
-    ``quick_exit`` (default: when called by the ``swarmgames`` script itself, or
-    ``python -m swarmgames``): once the command has ended, the process ends as Python would
-    (its exit handlers run, its output is flushed, the same exit status) but without tearing
-    down the interpreter's modules, which took 0.5 s after a run (Numba's and LLVM's state,
-    matplotlib, pandas). Called from other code, the command's ``SystemExit`` propagates."""
-    if quick_exit is None:
-        quick_exit = argv is None and _called_by_the_script(sys._getframe(1))
+    With ``quick_exit`` (:func:`script`, the ``swarmgames`` command and ``python -m
+    swarmgames``), once the command has ended the process ends as Python would (its exit
+    handlers run, its output is flushed, the same exit status) but without tearing down the
+    interpreter's modules, which took 0.5 s after a run (Numba's and LLVM's state,
+    matplotlib, pandas). Without it, the command's ``SystemExit`` propagates to the caller."""
     reuse_freed_memory()
     warnings.showwarning = _one_line_warning
     try:
@@ -1097,20 +1095,9 @@ def main(argv: list[str] | None = None, *, quick_exit: bool | None = None) -> No
         raise
 
 
-def _called_by_the_script(frame) -> bool:
-    """Whether ``frame`` is the top level of the program ``sys.argv[0]`` names (the console
-    script)."""
-    import os
-
-    where = frame.f_globals
-    script = where.get("__file__")
-    return (
-        where.get("__name__") == "__main__"
-        and frame.f_back is None
-        and bool(script)
-        and bool(sys.argv and sys.argv[0])
-        and os.path.abspath(script) == os.path.abspath(sys.argv[0])
-    )
+def script() -> None:
+    """The ``swarmgames`` console script: :func:`main` with ``quick_exit``."""
+    main(quick_exit=True)
 
 
 def _end_process(code) -> None:
