@@ -91,7 +91,7 @@ def test_observations_are_what_the_robots_heard():
     env.reset(seed=0)
     obs, *_ = env.step(env.expert_actions())
     view = env._loop.observe()  # the stage the observation was made from
-    inbox = view.inbox
+    inbox = view.messages
     for a, o in obs.items():
         i = int(a.split("_")[1])
         row = slice(inbox.indptr[i] + 1, inbox.indptr[i + 1])  # i first, then the others

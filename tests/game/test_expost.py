@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from swarmgames.game import FunctionPotentials, make_solver, measure_stage, solve_stage
+from swarmgames.game import FunctionPotentials, StageProblem, make_solver, measure_stage, solve
 from swarmgames.game.expost import expost_games, expost_regret
 from swarmgames.game.local import broadcast
 from swarmgames.game.stage import measure_expost
@@ -61,7 +61,9 @@ def test_expost_regret_is_nonnegative_and_zero_for_the_best_hindsight_action(see
     pot = CrowdedGoal() if crowded else POT
     solver = make_solver("mean_field", alpha_b=0.5)
     actions = _valid_random_actions(pos, seed)
-    out = measure_expost(solver, snap, 2, pos, _next(pos, actions), actions, MODEL, pot)
+    out = measure_expost(
+        StageProblem.ideal(snap, 2, pos, MODEL, pot, solver), actions, _next(pos, actions)
+    )
     assert out.shape == (n,) and np.all(out >= 0.0)
     # Robot 0 switching to its best action in hindsight has no regret left.
     games = expost_games(broadcast(snap, 2, pos).views([0]), _next(pos, actions), MODEL)
@@ -81,7 +83,7 @@ def test_expost_equals_global_regret_when_every_neighbour_stands_still(crowded):
     pot = CrowdedGoal() if crowded else POT
     solver = make_solver("mean_field", alpha_b=0.5)
     still = np.full(15, STAY)
-    out = measure_stage(solver, snap, 2, pos, MODEL, pot, still)
+    out = measure_stage(StageProblem.ideal(snap, 2, pos, MODEL, pot, solver), still)
     np.testing.assert_array_equal(out.expost_regret, out.global_regret)
     assert (out.global_regret > 0).any()  # staying is not a NE here: the test is not vacuous
 
@@ -93,7 +95,7 @@ def test_expost_equals_global_regret_for_robots_whose_neighbours_stand_still():
     actions = np.full(15, STAY)
     movers = np.array([0, 7])
     actions[movers] = _valid_random_actions(pos, 1)[movers]
-    out = measure_stage(solver, snap, 2, pos, MODEL, CrowdedGoal(), actions)
+    out = measure_stage(StageProblem.ideal(snap, 2, pos, MODEL, CrowdedGoal(), solver), actions)
     messages = broadcast(snap, 2, pos)
     quiet = [i for i in range(15) if not set(messages.neighbourhood(i)) - {i} & set(movers)]
     assert quiet
@@ -133,7 +135,7 @@ def test_expost_regret_against_brute_force_on_a_tiny_swarm():
     nxt = _next(pos, actions)
     pot = CrowdedGoal()
     solver = make_solver("mean_field", alpha_a=1.0, alpha_b=0.5)
-    out = measure_expost(solver, snap, 2, pos, nxt, actions, MODEL, pot)
+    out = measure_expost(StageProblem.ideal(snap, 2, pos, MODEL, pot, solver), actions, nxt)
     ref = [_brute_force(pos, snap, 2, actions, nxt, pot, 1.0, 0.5, i) for i in range(4)]
     np.testing.assert_allclose(out, ref, rtol=1e-12, atol=1e-12)
     assert (out > 0).any()
@@ -142,14 +144,20 @@ def test_expost_regret_against_brute_force_on_a_tiny_swarm():
 def test_solve_stage_measures_expost_regret_with_the_global_regret():
     pos, snap = swarm(12, 5)
     solver = make_solver("mean_field", alpha_b=0.5)
-    out = solve_stage(solver, snap, 2, pos, MODEL, CrowdedGoal(), rng=0)
-    ref = measure_expost(solver, snap, 2, pos, out.next_states, out.actions, MODEL, CrowdedGoal())
+    out = solve(StageProblem.ideal(snap, 2, pos, MODEL, CrowdedGoal(), solver), 0)
+    ref = measure_expost(
+        StageProblem.ideal(snap, 2, pos, MODEL, CrowdedGoal(), solver), out.actions, out.next_states
+    )
     np.testing.assert_array_equal(out.expost_regret, ref)
     assert out.expost_s > 0
-    off = solve_stage(solver, snap, 2, pos, MODEL, CrowdedGoal(), rng=0, global_regret=False)
+    off = solve(
+        StageProblem.ideal(snap, 2, pos, MODEL, CrowdedGoal(), solver, global_regret=False), 0
+    )
     assert np.isnan(off.expost_regret).all()
     with pytest.raises(ValueError, match=r"next_states must have shape \(12, 2\)"):
-        measure_expost(solver, snap, 2, pos, out.next_states[:3], out.actions, MODEL, POT)
+        measure_expost(
+            StageProblem.ideal(snap, 2, pos, MODEL, POT, solver), out.actions, out.next_states[:3]
+        )
 
 
 def test_expost_regret_of_the_coverage_mission_equals_global_when_nobody_moves():
@@ -166,7 +174,9 @@ def test_expost_regret_of_the_coverage_mission_equals_global_when_nobody_moves()
     solver = make_solver("mean_field", alpha_b=cfg.game.alpha_b)
     still = np.zeros(9, dtype=int)
     assert np.allclose(mission.action_model.apply(states)[np.arange(9), still], states)
-    out = measure_stage(solver, snap, 2, states, mission.action_model, mission.potentials, still)
+    out = measure_stage(
+        StageProblem.ideal(snap, 2, states, mission.action_model, mission.potentials, solver), still
+    )
     np.testing.assert_allclose(out.expost_regret, out.global_regret, rtol=1e-9, atol=1e-9)
     assert np.all(out.expost_regret >= 0)
 
@@ -176,7 +186,7 @@ def test_function_potentials_without_a_pairwise_term():
     pot = FunctionPotentials(lambda s: -np.linalg.norm(s - 100.0, axis=-1))
     solver = make_solver("mean_field")
     actions = _valid_random_actions(pos, 0)
-    out = measure_stage(solver, snap, 1, pos, MODEL, pot, actions)
+    out = measure_stage(StageProblem.ideal(snap, 1, pos, MODEL, pot, solver), actions)
     # Without a pairwise term and with a unary of the own next state only, the neighbours'
     # states do not matter: ex-post and global regret agree whatever they did.
     np.testing.assert_array_equal(out.expost_regret, out.global_regret)

@@ -17,13 +17,14 @@ from hypothesis import strategies as st
 
 from swarmgames.game import (
     GamePayoffs,
+    StageProblem,
     evaluate_payoffs,
     exact_profiles,
     local_regret,
     make_solver,
     mean_field,
     profile_payoff,
-    solve_stage,
+    solve,
 )
 from swarmgames.game.equilibrium import _fields
 from swarmgames.game.refine import _field_row, refine_profiles
@@ -181,28 +182,40 @@ def test_isolated_robot_and_single_action_games():
 def test_a_refined_stage_has_local_regret_exactly_zero(dtype):
     pos, snap = swarm(20, 3)
     solver = make_solver("mean_field", alpha_b=0.5, beta=1.0, dtype=dtype)
-    plain = solve_stage(solver, snap, 2, pos, MODEL, POT, rng=0)
-    out = solve_stage(solver, snap, 2, pos, MODEL, POT, rng=0, refine="best_response")
+    plain = solve(StageProblem.ideal(snap, 2, pos, MODEL, POT, solver), 0)
+    out = solve(StageProblem.ideal(snap, 2, pos, MODEL, POT, solver, refine="best_response"), 0)
     assert np.all(out.local_regret == 0.0)
     assert np.array_equal(out.refine_moves == 0, plain.local_regret == 0.0)
     assert np.all(out.refine_sweeps >= 1) and out.refine_s > 0
     assert np.all(plain.refine_sweeps == 0) and plain.refine_s == 0.0
     # The owner plays its refined action (no two robots coincide here).
-    kept = solve_stage(
-        solver, snap, 2, pos, MODEL, POT, rng=0, refine="best_response", keep_games=True
+    kept = solve(
+        StageProblem.ideal(
+            snap, 2, pos, MODEL, POT, solver, refine="best_response", keep_games=True
+        ),
+        0,
     )
     assert np.array_equal(kept.actions, kept.solution.profile[:, 0])
     with pytest.raises(ValueError, match=r"refine must be one of 'none', 'best_response'"):
-        solve_stage(solver, snap, 2, pos, MODEL, POT, refine="nash")
+        solve(StageProblem.ideal(snap, 2, pos, MODEL, POT, solver, refine="nash"))
 
 
 def test_a_refined_centralised_stage_plays_a_pure_ne_of_the_swarm_game():
     pos, snap = swarm(8, 1)
     solver = make_solver("mean_field", alpha_b=0.5, beta=1.0)
-    out = solve_stage(
-        solver, snap, 1, pos, MODEL, POT, centralised=True, refine="best_response",
-        keep_games=True,
-    )  # fmt: skip
+    out = solve(
+        StageProblem.ideal(
+            snap,
+            1,
+            pos,
+            MODEL,
+            POT,
+            solver,
+            centralised=True,
+            refine="best_response",
+            keep_games=True,
+        )
+    )
     pay = solver.evaluate(out.batch, POT)
     assert np.all(local_regret(pay, out.solution.profile) == 0.0)
     assert np.array_equal(out.actions, out.solution.profile[0])
@@ -222,10 +235,19 @@ def test_refinement_on_the_fused_coverage_source():
     states = mission.initial_states(30, np.random.default_rng(0))
     snap = disk_snapshot(states[:, :2], 368.84)
     solver = make_solver("mean_field", alpha_b=cfg.game.alpha_b, dtype="float32", beta=5.0)
-    out = solve_stage(
-        solver, snap, 2, states, mission.action_model, mission.potentials, rng=0,
-        refine="best_response", keep_games=True,
-    )  # fmt: skip
+    out = solve(
+        StageProblem.ideal(
+            snap,
+            2,
+            states,
+            mission.action_model,
+            mission.potentials,
+            solver,
+            refine="best_response",
+            keep_games=True,
+        ),
+        0,
+    )
     pay = solver.evaluate(out.batch, mission.potentials)
     assert pay.pair_source is not None and pay.pair is None
     assert np.all(out.local_regret == 0.0)

@@ -240,7 +240,7 @@ def _dense_default_stage(monkeypatch, share: bool):
     sb = StageBench(40, config=cfg, seed=3)
     sb.controller.global_regret = True
     sb.step()
-    return sb.controller.decide(sb.snapshot, sb.states, np.random.default_rng(0)), seen
+    return sb.controller.decide(sb.problem(), np.random.default_rng(0)), seen
 
 
 def test_equal_held_games_batched_by_their_table_give_the_same_stage(monkeypatch):

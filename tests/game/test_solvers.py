@@ -11,8 +11,9 @@ from swarmgames.game import (
     GameSolution,
     MeanFieldSolver,
     Solver,
+    StageProblem,
     make_solver,
-    solve_stage,
+    solve,
 )
 from swarmgames.sim.controllers import solver_from_config
 from tests.game.helpers import MODEL, POT, random_games
@@ -28,8 +29,11 @@ def test_every_solver_returns_a_valid_action_per_robot(name, centralised):
     cfg = cfg.model_copy(update={"max_profiles": 10**7})
     solver = solver_from_config(cfg)
     assert solver.name == name and isinstance(solver, Solver)
-    out = solve_stage(
-        solver, snap, 1, pos, MODEL, POT, rng=0, centralised=centralised, keep_games=True
+    out = solve(
+        StageProblem.ideal(
+            snap, 1, pos, MODEL, POT, solver, centralised=centralised, keep_games=True
+        ),
+        0,
     )
     assert out.actions.shape == (8,)
     valid = MODEL.valid(pos)

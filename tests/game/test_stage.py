@@ -9,12 +9,13 @@ import pytest
 
 from swarmgames.game import (
     MeanFieldSolver,
+    StageProblem,
     evaluate_payoffs,
     global_regret,
     local_games,
     local_regret,
     make_solver,
-    solve_stage,
+    solve,
     stage_regret,
 )
 from swarmgames.game.stage import measure_stage
@@ -25,8 +26,10 @@ from tests.game.helpers import swarm as _swarm
 def test_virtual_mean_switch_changes_the_games():
     pos, snap = _swarm(15, 1)
     solver = make_solver("mean_field")
-    with_v = solve_stage(solver, snap, 1, pos, MODEL, POT, keep_games=True)
-    without = solve_stage(solver, snap, 1, pos, MODEL, POT, virtual_mean=False, keep_games=True)
+    with_v = solve(StageProblem.ideal(snap, 1, pos, MODEL, POT, solver, keep_games=True))
+    without = solve(
+        StageProblem.ideal(snap, 1, pos, MODEL, POT, solver, virtual_mean=False, keep_games=True)
+    )
     assert with_v.batch.is_virtual.any() and not without.batch.is_virtual.any()
 
 
@@ -53,7 +56,7 @@ def test_global_regret_reuses_the_solved_tables(virtual_mean):
     pos, snap = _swarm(15, 5)
     solver = make_solver("mean_field", alpha_b=0.5)
     pot = _Counting(POT)
-    out = solve_stage(solver, snap, 2, pos, MODEL, pot, virtual_mean=virtual_mean)
+    out = solve(StageProblem.ideal(snap, 2, pos, MODEL, pot, solver, virtual_mean=virtual_mean))
     virtual = local_games(snap, 2, pos, MODEL).is_virtual.any(axis=1)
     assert 0 < virtual.sum() < 15
     # A game with virtual means (eq3, outside) or context (exact: the games whose members
@@ -62,7 +65,7 @@ def test_global_regret_reuses_the_solved_tables(virtual_mean):
     assert pot.games == 15 + redo + 15
     ref = stage_regret(snap, 2, pos, MODEL, POT, out.actions, 1.0, 0.5)
     np.testing.assert_array_equal(out.global_regret, ref)
-    skipped = solve_stage(solver, snap, 2, pos, MODEL, pot, global_regret=False)
+    skipped = solve(StageProblem.ideal(snap, 2, pos, MODEL, pot, solver, global_regret=False))
     assert np.isnan(skipped.global_regret).all()
 
 
@@ -80,7 +83,7 @@ def test_global_regret_when_an_action_is_invalid_at_a_virtual_position():
     model = DisplacementActions.headings(3.0, 4, lower=[-100.0, -100.0], upper=[10.0, 100.0])
     goal = FunctionPotentials(lambda s: s[..., 0])  # everyone wants +x
     solver = make_solver("mean_field", alpha_b=0.0)
-    out = solve_stage(solver, snap, 1, pos, model, goal, keep_games=True)
+    out = solve(StageProblem.ideal(snap, 1, pos, model, goal, solver, keep_games=True))
     assert out.batch.is_virtual[[0, 2]].any(axis=1).all() and not out.batch.is_virtual[1].any()
     assert out.actions[1] == 1  # +x, invalid at robot 1's virtual position
     virtual = out.batch.states[0, list(out.batch.members[0]).index(1)]
@@ -106,7 +109,7 @@ def test_global_regret_with_an_inbox_reevaluates_only_games_it_got_wrong():
     wrong = np.array([3 in truth.neighbourhood(i) for i in range(15)])
     assert 0 < wrong.sum() < 15
     pot = _Counting(POT)
-    out = solve_stage(solver, snap, 2, pos, MODEL, pot, virtual_mean=False, inbox=inbox)
+    out = solve(StageProblem(0.0, snap, 2, pos, inbox, MODEL, pot, solver, virtual_mean=False))
     assert pot.games == 15 + int(wrong.sum()) + 15  # and the 15 ex-post games
     ref = stage_regret(snap, 2, pos, MODEL, POT, out.actions, 1.0, 0.5)
     np.testing.assert_array_equal(out.global_regret, ref)
@@ -118,7 +121,9 @@ def test_exact_stage_solves_members_against_fixed_context():
     # robot's payoff counts its members' terms (with the context) but not the context's own.
     pos, snap = _swarm(15, 5)
     solver = make_solver("mean_field", alpha_b=0.5)
-    out = solve_stage(solver, snap, 2, pos, MODEL, POT, virtual_mean="exact", keep_games=True)
+    out = solve(
+        StageProblem.ideal(snap, 2, pos, MODEL, POT, solver, virtual_mean="exact", keep_games=True)
+    )
     batch, sol = out.batch, out.solution
     ctx = batch.is_context
     assert ctx.any() and not batch.is_virtual.any()
@@ -138,10 +143,19 @@ def test_exact_stage_solves_members_against_fixed_context():
     assert np.all(out.local_regret >= 0)
     # Best-response refinement never moves a context robot off its one action, and reaches a
     # pure equilibrium of the members (game/refine.py).
-    out = solve_stage(
-        solver, snap, 2, pos, MODEL, POT, virtual_mean="exact", keep_games=True,
-        refine="best_response",
-    )  # fmt: skip
+    out = solve(
+        StageProblem.ideal(
+            snap,
+            2,
+            pos,
+            MODEL,
+            POT,
+            solver,
+            virtual_mean="exact",
+            keep_games=True,
+            refine="best_response",
+        )
+    )
     profile = np.asarray(out.solution.profile)[:, :, None]
     on = np.take_along_axis(out.batch.action_mask, profile, axis=2)[:, :, 0]
     assert on[out.batch.is_context].all() and np.all(out.local_regret == 0)
@@ -152,19 +166,19 @@ def test_measure_stage_scores_given_actions_on_the_true_games():
     solver = make_solver("mean_field", alpha_b=0.5)
     actions = np.random.default_rng(0).integers(0, MODEL.n_actions, 12)
     actions = np.where(MODEL.valid(pos)[np.arange(12), actions], actions, 0)
-    out = measure_stage(solver, snap, 1, pos, MODEL, POT, actions)
+    out = measure_stage(StageProblem.ideal(snap, 1, pos, MODEL, POT, solver), actions)
     np.testing.assert_array_equal(out.actions, actions)
     ref = stage_regret(snap, 1, pos, MODEL, POT, actions, 1.0, 0.5)
     np.testing.assert_array_equal(out.global_regret, ref)
     assert np.all(out.local_regret >= out.global_regret)  # the owner is one of the players
     with pytest.raises(ValueError, match=r"actions must have shape \(12,\)"):
-        measure_stage(solver, snap, 1, pos, MODEL, POT, actions[:3])
+        measure_stage(StageProblem.ideal(snap, 1, pos, MODEL, POT, solver), actions[:3])
 
 
 def test_low_temperature_stage_profiles_are_local_equilibria():
     pos, snap = _swarm(20, 2)
     solver = make_solver("mean_field", beta=1e4, delta=1e-12, max_iter=500, alpha_b=0.5)
-    out = solve_stage(solver, snap, 2, pos, MODEL, POT, keep_games=True)
+    out = solve(StageProblem.ideal(snap, 2, pos, MODEL, POT, solver, keep_games=True))
     pay = solver.evaluate(out.batch, POT)
     regret = local_regret(pay, out.solution.profile)
     assert np.mean(regret <= 1e-9) >= 0.95
@@ -174,7 +188,9 @@ def test_low_temperature_stage_profiles_are_local_equilibria():
 def test_global_regret_of_a_stage_is_non_negative():
     pos, snap = _swarm(10, 3)
     true = evaluate_payoffs(local_games(snap, 1, pos, MODEL, virtual_mean=False), POT, 1.0, 0.5)
-    out = solve_stage(make_solver("mean_field", alpha_b=0.5), snap, 1, pos, MODEL, POT)
+    out = solve(
+        StageProblem.ideal(snap, 1, pos, MODEL, POT, make_solver("mean_field", alpha_b=0.5))
+    )
     regret = global_regret(true, out.actions)
     np.testing.assert_array_equal(out.global_regret, regret)
     assert np.all(regret >= 0)
@@ -186,7 +202,9 @@ def test_global_regret_of_a_stage_is_non_negative():
 def test_isolated_robot_stage():
     pos = np.array([[10.0, 10.0], [190.0, 190.0]])
     snap = disk_snapshot(pos, 20.0)
-    out = solve_stage(make_solver("mean_field"), snap, 2, pos, MODEL, POT, keep_games=True)
+    out = solve(
+        StageProblem.ideal(snap, 2, pos, MODEL, POT, make_solver("mean_field"), keep_games=True)
+    )
     assert out.batch.n_vars == 1 and out.solution.converged.all()
     # Each isolated robot moves towards (100, 100): heading 45 degrees for robot 0.
     assert out.actions[0] == 2 and out.actions[1] == 6
@@ -199,8 +217,10 @@ def test_buckets_give_the_same_stage_as_one_batch(buckets, engine):
     # (meanfield docstring).
     pos, snap = _swarm(25, 4)
     solver = MeanFieldSolver(alpha_b=0.5, beta=20.0, engine=engine)
-    one = solve_stage(solver, snap, 2, pos, MODEL, POT, keep_games=True)
-    many = solve_stage(solver, snap, 2, pos, MODEL, POT, buckets=buckets, keep_games=True)
+    one = solve(StageProblem.ideal(snap, 2, pos, MODEL, POT, solver, keep_games=True))
+    many = solve(
+        StageProblem.ideal(snap, 2, pos, MODEL, POT, solver, buckets=buckets, keep_games=True)
+    )
     np.testing.assert_array_equal(many.actions, one.actions)
     np.testing.assert_array_equal(many.batch.owner, np.arange(25))
     k = one.batch.n_vars
@@ -212,14 +232,16 @@ def test_buckets_give_the_same_stage_as_one_batch(buckets, engine):
 def test_buckets_must_be_a_positive_integer():
     pos, snap = _swarm(3)
     with pytest.raises(ValueError, match=r"buckets must be an integer >= 0 \(got -1\)"):
-        solve_stage(make_solver("mean_field"), snap, 2, pos, MODEL, POT, buckets=-1)
+        solve(StageProblem.ideal(snap, 2, pos, MODEL, POT, make_solver("mean_field"), buckets=-1))
 
 
 def test_centralised_sampled_actions_are_valid_and_reproducible():
     pos, snap = _swarm(10, 5)
     solver = make_solver("mean_field", action_choice="sample", beta=1.0)
-    a = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=3, centralised=True, keep_games=True)
-    b = solve_stage(solver, snap, 1, pos, MODEL, POT, rng=3, centralised=True)
+    a = solve(
+        StageProblem.ideal(snap, 1, pos, MODEL, POT, solver, centralised=True, keep_games=True), 3
+    )
+    b = solve(StageProblem.ideal(snap, 1, pos, MODEL, POT, solver, centralised=True), 3)
     np.testing.assert_array_equal(a.actions, b.actions)
     assert np.all(MODEL.valid(pos)[np.arange(10), a.actions])
     # At beta = 1 the marginals are spread out: sampling differs from the argmax somewhere.

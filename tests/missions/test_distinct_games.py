@@ -129,7 +129,7 @@ def test_dense_games_solve_alike_alone_and_on_their_shared_table():
 def test_dense_stage_results_do_not_depend_on_its_batches():
     """With tables on demand, games holding the same robots share ranked tables inside a
     batch; the games' results must not depend on which games are batched together."""
-    from swarmgames.game import make_solver, solve_stage
+    from swarmgames.game import StageProblem, make_solver, solve
 
     batch, pot = _dense(16, -100.0, "compiled")
     states = np.asarray(batch.states)[0, np.argsort(np.asarray(batch.members)[0])]
@@ -137,7 +137,7 @@ def test_dense_stage_results_do_not_depend_on_its_batches():
     snap = disk_snapshot(states[:, :2], 1000.0)
     solver = make_solver("mean_field", dtype="float32", engine="compiled")
     runs = [
-        solve_stage(solver, snap, 1, states, mission.action_model, pot, 0, buckets=b)
+        solve(StageProblem.ideal(snap, 1, states, mission.action_model, pot, solver, buckets=b), 0)
         for b in (1, 5)
     ]
     for field in ("actions", "payoff", "local_regret", "global_regret", "iterations"):

@@ -90,12 +90,15 @@ class _Interrupting:
 
     def __init__(self, inner, at):
         self.inner, self.at, self.calls = inner, at, 0
+        self.hops = inner.hops
+        self.plan, self.problem = inner.plan, inner.problem
+        self.measure, self.expost_regret = inner.measure, inner.expost_regret
 
-    def decide(self, *args, **kwargs):
+    def decide(self, problem, rng):
         self.calls += 1
         if self.calls > self.at:
             raise KeyboardInterrupt
-        return self.inner.decide(*args, **kwargs)
+        return self.inner.decide(problem, rng)
 
 
 def test_ctrl_c_keeps_completed_stages():
@@ -194,7 +197,15 @@ def test_two_cycle_swarm_reports_full_oscillation():
     # Two robots that swap between two points every stage: every stage after the first has
     # every robot back at its position of two stages before.
     class Swap:
-        def decide(self, snap, states, rng, inbox=None):
+        hops = 1
+
+        def plan(self, loop):
+            pass
+
+        def problem(self, t, snapshot, states, messages, *, keep_games=False):
+            return states
+
+        def decide(self, states, rng):
             from swarmgames.game.stage import StageSolution
 
             n = states.shape[0]

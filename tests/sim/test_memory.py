@@ -10,6 +10,7 @@ from click.testing import CliRunner
 
 from swarmgames.cli import cli
 from swarmgames.config import resolve_scenario
+from swarmgames.game.local import broadcast
 from swarmgames.game.memory import stage_memory
 from swarmgames.sim import run
 from swarmgames.sim.controllers import make_controller
@@ -34,10 +35,13 @@ def _stage_peak(config) -> tuple[float, int]:
     provider.reset(states[:, :3], 0.0)
     snapshot = provider.advance(config.sim.warmup_s, states[:, :3])
     controller = make_controller(config, mission)
-    controller.decide(snapshot, states, rngs[2])
+    problem = controller.problem(
+        0.0, snapshot, states, broadcast(snapshot, controller.hops, states)
+    )
+    controller.decide(problem, rngs[2])
     tracemalloc.start()
     try:
-        stage = controller.decide(snapshot, states, rngs[2])
+        stage = controller.decide(problem, rngs[2])
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
@@ -189,12 +193,15 @@ def test_exact_games_hold_2h_hops_and_the_estimate_counts_them():
     provider.reset(states[:, :3], 0.0)
     snapshot = provider.advance(0.0, states[:, :3])
     controller = make_controller(exact, mission)
-    stage = controller.decide(snapshot, states, rng, keep_games=True)
+    messages = broadcast(snapshot, controller.hops, states)
+    stage = controller.decide(
+        controller.problem(0.0, snapshot, states, messages, keep_games=True), rng
+    )
     biggest = int(stage.batch.mask.sum(axis=1).max())
     assert int(stage.neighbours.max()) + 1 < biggest <= neighbourhood_size(exact, mission)
     tracemalloc.start()
     try:
-        controller.decide(snapshot, states, rng)
+        controller.decide(controller.problem(0.0, snapshot, states, messages), rng)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()

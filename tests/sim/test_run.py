@@ -9,6 +9,7 @@ import pytest
 
 from swarmgames.config import ScenarioConfig, parse_config
 from swarmgames.errors import ConfigError, RunFolderError
+from swarmgames.game.local import broadcast
 from swarmgames.missions.protocol import COMMS_COLUMNS, NETWORK_COLUMNS, SWARM_HEAD
 from swarmgames.runfolder import LOCK_FILE, RunFolder
 from swarmgames.sim import build_mission, run
@@ -137,7 +138,9 @@ def test_two_robot_payoff_against_hand_computation():
     roi, model = mission.roi, mission.action_model
     pos = np.array([[-100.0, 0.0, 30.0], [120.0, 40.0, 30.0]])
     snap = TopologySnapshot.from_hop_matrix(0.0, np.array([[0, 1], [1, 0]]))
-    dec = GameController(cfg, mission).decide(snap, pos, np.random.default_rng(0))
+    ctrl = GameController(cfg, mission)
+    problem = ctrl.problem(0.0, snap, pos, broadcast(snap, ctrl.hops, pos))
+    dec = ctrl.decide(problem, np.random.default_rng(0))
     # In a two-robot clique both local games are the same game; each owner plays its own
     # entry of the shared profile.
     x0, x1 = (int(a) for a in dec.actions)
@@ -326,8 +329,11 @@ def test_size_batches_give_the_same_decision_as_one_batch():
     pos = np.c_[pos, np.full(60, 30.0)]
     snap = DiskOracle().reset(pos)
     rng = np.random.default_rng(0)
-    a = GameController(one, mission).decide(snap, pos, rng)
-    b = GameController(many, mission).decide(snap, pos, rng)
+    messages = broadcast(snap, one.network.hops, pos)
+    a = GameController(one, mission)
+    a = a.decide(a.problem(0.0, snap, pos, messages), rng)
+    b = GameController(many, mission)
+    b = b.decide(b.problem(0.0, snap, pos, messages), rng)
     np.testing.assert_array_equal(a.actions, b.actions)
     np.testing.assert_allclose(a.payoff, b.payoff, rtol=1e-5)
     np.testing.assert_allclose(a.global_regret, b.global_regret, atol=1e-5)

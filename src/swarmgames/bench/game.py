@@ -221,7 +221,7 @@ def bench_stage(
     the form of eq. 6 (log-distance signal), so the evaluation cost is representative.
 
     buckets : int
-        Passed to :func:`~swarmgames.game.stage.solve_stage` (0 = automatic).
+        Passed to :class:`~swarmgames.game.problem.StageProblem` (0 = automatic).
 
     Returns
     -------
@@ -234,8 +234,9 @@ def bench_stage(
 
     from swarmgames.game.actions import DisplacementActions
     from swarmgames.game.potentials import FunctionPotentials
+    from swarmgames.game.problem import StageProblem
     from swarmgames.game.solvers import MeanFieldSolver
-    from swarmgames.game.stage import solve_stage
+    from swarmgames.game.stage import solve
     from swarmgames.topology import TopologySnapshot
 
     rng = np.random.default_rng(seed)
@@ -262,17 +263,18 @@ def bench_stage(
         lambda s: signal(np.linalg.norm(s - centre, axis=-1)) / 100.0,
         lambda s, t: signal(np.linalg.norm(s - t, axis=-1)),
     )
-    stage = solve_stage(
-        MeanFieldSolver(alpha_b=alpha_b, beta=beta),
+    problem = StageProblem.ideal(
         snap,
         h,
         pos,
         model,
         pot,
+        MeanFieldSolver(alpha_b=alpha_b, beta=beta),
         buckets=buckets,
         global_regret=False,
         keep_games=True,
     )
+    stage = solve(problem)
     batch, sol, build_s = stage.batch, stage.solution, stage.build_s
     k = batch.mask.sum(axis=1)
     return {

@@ -18,6 +18,8 @@ from typing import Any
 import numpy as np
 
 from swarmgames.config import ScenarioConfig, scaled_config
+from swarmgames.game.local import broadcast
+from swarmgames.game.problem import StageProblem
 from swarmgames.sim.controllers import GameController
 from swarmgames.sim.providers import provider_from_config
 from swarmgames.sim.runner import build_mission
@@ -97,6 +99,14 @@ class StageBench:
         """N."""
         return int(self.states.shape[0])
 
+    def problem(self, *, keep_games: bool = False) -> StageProblem:
+        """The current stage's problem with exact, instant delivery (the run's controller's
+        options)."""
+        messages = broadcast(self.snapshot, self.controller.hops, self.states)
+        return self.controller.problem(
+            self.time, self.snapshot, self.states, messages, keep_games=keep_games
+        )
+
     def step(self) -> None:
         """One stage: network advance, every local game solved, the robots moved."""
         period = self.config.sim.control_period_s
@@ -104,7 +114,7 @@ class StageBench:
         self.time += period
         self.snapshot = self.provider.advance(self.time, self.states[:, :3])
         t1 = time.perf_counter()
-        dec = self.controller.decide(self.snapshot, self.states, self.rng)
+        dec = self.controller.decide(self.problem(), self.rng)
         self.states = np.asarray(dec.next_states)
         t2 = time.perf_counter()
         p = self.parts

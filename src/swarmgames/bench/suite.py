@@ -560,9 +560,7 @@ def _batched_vs_single(sb: StageBench, n_single: int, seed: int, engine: str) ->
     with the mean-field ``engine`` (batched: best of 3; one by one: mean, after one untimed
     solve of each kind, so that compilation is not timed)."""
     ctrl, m = sb.controller, sb.mission
-    messages, groups = plan_stage(
-        sb.snapshot, ctrl.hops, sb.states, int(m.action_model.n_actions), ctrl.buckets
-    )
+    messages, groups = plan_stage(sb.problem())
     pays = [
         evaluate_games(
             ctrl.solver,
@@ -618,9 +616,7 @@ def _decide_batched_vs_single(sb: StageBench, n_single: int, seed: int) -> dict:
     from swarmgames.game.meanfield import resolve_engine
 
     ctrl, m = sb.controller, sb.mission
-    messages, groups = plan_stage(
-        sb.snapshot, ctrl.hops, sb.states, int(m.action_model.n_actions), ctrl.buckets
-    )
+    messages, groups = plan_stage(sb.problem())
 
     def decide(owners) -> None:
         for group in owners:

@@ -177,6 +177,12 @@ class BeliefInbox:
         freeze_fields(self)
 
     @property
+    def exact(self) -> bool:
+        """False: what a robot holds may be late, stale or missing (the stage builds the
+        true neighbourhoods for its measurements)."""
+        return False
+
+    @property
     def sizes(self) -> np.ndarray:
         """|N_i| of every robot's game as it knows it (owner included), shape (N,)."""
         return np.diff(self.indptr)

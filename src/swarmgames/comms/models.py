@@ -154,15 +154,14 @@ class IdealComms:
         """Nothing to take back (see :meth:`state`)."""
 
     def exchange(self, t: float, snapshot: TopologySnapshot, states, rng=None, active=None):
-        """``(None, stats)``: the stage pipeline's default inbox (the exact broadcast) is the
-        ideal one; every member receives every message of its neighbourhood once. A robot
-        without a radio (``active`` false) is known only through the routing tables, which
-        forget it after their hold times."""
+        """``(messages, stats)``: the exact broadcast of the stage
+        (:func:`~swarmgames.game.local.broadcast`, exact messages); every member receives
+        every message of its neighbourhood once. A robot without a radio (``active`` false) is
+        known only through the routing tables, which forget it after their hold times."""
         states = np.asarray(states, dtype=float)
-        indptr, _ = _table_rows(snapshot, self.hops)
-        count = np.diff(indptr)
-        sizes = message_bytes(states.shape[1], count)
         messages = broadcast(snapshot, self.hops, states)
+        count = messages.sizes
+        sizes = message_bytes(states.shape[1], count)
         heard_ptr, heard = messages.indptr, messages.indices
         if self.context:  # N_i ∪ C_i: the rows of the members' rows
             n = count.size
@@ -188,7 +187,7 @@ class IdealComms:
             bytes_received=rx_bytes,
             channel_load=np.full(n, np.nan),
         )
-        return None, stats
+        return messages, stats
 
 
 @dataclass(frozen=True, eq=False)

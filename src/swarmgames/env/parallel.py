@@ -230,7 +230,7 @@ class SwarmParallelEnv(ParallelEnv):
             raise ValueError(f"action of uav_{bad} must be in [0, {self.n_actions})")
         replaced = ~mask[np.arange(self.n_robots), chosen]
         chosen = np.where(replaced, np.argmax(mask, axis=1), chosen)
-        record = loop.act(self._expert.measure(view.snapshot, view.states, chosen))
+        record = loop.act(self._expert.measure(self._expert.problem(*view.problem_fields), chosen))
         live = list(self.agents)
         rewards = self._rewards(record, live)
         done = loop.stage >= self._n_stages
@@ -264,7 +264,7 @@ class SwarmParallelEnv(ParallelEnv):
         loop = self._loop
         if self._expert_stage != loop.stage:
             view = loop.observe()
-            dec = self._expert.decide(view.snapshot, view.states, loop.rng, inbox=view.inbox)
+            dec = self._expert.decide(self._expert.problem(*view.problem_fields), loop.rng)
             self._expert_actions, self._expert_stage = np.asarray(dec.actions), loop.stage
         return {a: int(self._expert_actions[self._index(a)]) for a in self.agents}
 
@@ -326,16 +326,13 @@ class SwarmParallelEnv(ParallelEnv):
         return _flatten(empty) if self.flat else empty
 
     def _observations(self, view, agents=None) -> dict[str, dict]:
-        """Every agent's observation from the stage's inboxes (vectorised over robots)."""
-        from swarmgames.game.local import broadcast
-
+        """Every agent's observation from the stage's messages (vectorised over robots)."""
         n, k = self.n_robots, self.k
-        inbox = view.inbox
-        if inbox is None:  # ideal delivery: the exact states, age 0
-            views = broadcast(view.snapshot, self._expert.hops, view.states).views()
+        inbox = view.messages
+        views = inbox.views()
+        if inbox.exact:  # ideal delivery: the exact states, age 0
             age = np.zeros(views.members.shape)
         else:
-            views = inbox.views()
             from swarmgames.game.local import pad_rows
 
             entry = pad_rows(inbox.indptr, np.arange(inbox.member.size), np.arange(n))

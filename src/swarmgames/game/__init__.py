@@ -43,6 +43,7 @@ from swarmgames.game.potentials import (
     TablePotentials,
     evaluate_payoffs,
 )
+from swarmgames.game.problem import StageProblem
 from swarmgames.game.refine import Refinement, refine_profiles
 from swarmgames.game.solvers import (
     SOLVERS,
@@ -60,7 +61,7 @@ from swarmgames.game.stage import (
     measure_expost,
     measure_stage,
     plan_stage,
-    solve_stage,
+    solve,
     stage_regret,
 )
 from swarmgames.game.virtual import (
@@ -93,6 +94,7 @@ __all__ = [
     "RandomSolver",
     "Refinement",
     "Solver",
+    "StageProblem",
     "StageSolution",
     "TablePotentials",
     "action_mask_of",
@@ -131,7 +133,7 @@ __all__ = [
     "receive",
     "refine_profiles",
     "separate_colocated",
-    "solve_stage",
+    "solve",
     "stage_regret",
     "virtual_mode",
 ]

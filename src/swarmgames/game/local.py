@@ -76,8 +76,14 @@ class Inbox(Protocol):
     :class:`Messages` is the exact, instant inbox; :mod:`swarmgames.comms` builds inboxes from
     what a communication model delivered (late, lost, stale). For ``virtual_mean = "exact"``
     an inbox also needs ``context_sizes`` (|C_i| of every robot, shape (N,)) and
-    ``views(owners, context=True)``; the other variants use only the two members below.
+    ``views(owners, context=True)``; the other variants use only the members below.
     """
+
+    @property
+    def exact(self) -> bool:
+        """Whether every robot holds the exact current state of every member of its N_i(h)
+        (then the stage takes these messages as the truth its measurements need)."""
+        ...
 
     @property
     def sizes(self) -> np.ndarray:
@@ -108,6 +114,11 @@ class Messages:
     indptr: np.ndarray
     indices: np.ndarray
     mean_state: np.ndarray
+
+    @property
+    def exact(self) -> bool:
+        """True: every member receives every message of its neighbourhood, at once."""
+        return True
 
     @property
     def n_robots(self) -> int:

@@ -1,6 +1,6 @@
 """Peak memory of one stage, predicted from its sizes before anything is allocated.
 
-A stage (:func:`~swarmgames.game.stage.solve_stage`) holds at once, for its largest batch of
+A stage (:func:`~swarmgames.game.stage.solve`) holds at once, for its largest batch of
 local games (:func:`~swarmgames.game.stage.size_groups`: at most ``max_pair_elems`` pairwise
 entries, or one game when a single game is larger):
 

@@ -14,7 +14,7 @@ Solvers (``name``):
 
 A solver only solves the games it is given. How the games of a stage are built (with or
 without virtual means, as N local games or one centralised game) is a parameter of the stage
-pipeline, :func:`swarmgames.game.stage.solve_stage`, which a simulation loop calls once per
+pipeline, :func:`swarmgames.game.stage.solve`, which a simulation loop calls once per
 control period.
 
 References

@@ -1,10 +1,12 @@
 """One stage of the graphical game, built, evaluated, solved and measured in one place.
 
-:func:`solve_stage` is the stage pipeline that the simulation's controllers, the benchmarks
-and the public API all call once per control period:
+:func:`solve` is the stage pipeline that the simulation's controllers, the benchmarks, the
+environment, the MPC controller and the public API all call once per control period, on a
+:class:`~swarmgames.game.problem.StageProblem`:
 
-1. routing tables → every robot's inbox (:func:`~swarmgames.game.local.broadcast`), robots
-   split into batches of similar neighbourhood size (:func:`size_groups`);
+1. the messages every robot holds (the problem's; exact ones are also the truth the
+   measurements need, otherwise N_i(h) is built from the routing tables once), robots split
+   into batches of similar neighbourhood size (:func:`size_groups`);
 2. per batch: the local games (with virtual means, eq. 3, or one of the other variants of
    :data:`~swarmgames.names.VIRTUAL_MEANS`), their payoff tables (the potentials, eq. 1) and
    their solution (the configured solver, Algorithm 1); with ``refine="best_response"``
@@ -26,7 +28,7 @@ and the public API all call once per control period:
 
 ``centralised=True`` solves the swarm as one game instead (the centralised baseline) and
 measures every robot on its true local game. :func:`measure_stage` measures given actions the
-same way (for controllers that are not games, such as the Lloyd baseline);
+same way (for controllers that are not games, such as a mission's baseline);
 :func:`stage_regret` measures a joint action against any snapshot taken as the truth.
 
 References
@@ -62,7 +64,8 @@ from swarmgames.game.local import (
     local_games,
 )
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
-from swarmgames.game.refine import REFINE_METHODS, refine_profiles
+from swarmgames.game.problem import StageProblem
+from swarmgames.game.refine import refine_profiles
 from swarmgames.game.solvers import GameSolution, Solver, sample_actions
 from swarmgames.game.virtual import virtual_mode
 from swarmgames.rng import as_generator
@@ -76,7 +79,7 @@ __all__ = [
     "pair_on_demand",
     "plan_stage",
     "size_groups",
-    "solve_stage",
+    "solve",
     "stage_regret",
 ]
 
@@ -269,12 +272,6 @@ def pair_on_demand(solver, potentials) -> bool:
     return bool(fn(potentials)) if callable(fn) else False
 
 
-def _check_buckets(buckets) -> int:
-    if isinstance(buckets, bool) or not isinstance(buckets, (int, np.integer)) or buckets < 0:
-        raise ValueError(f"buckets must be an integer >= 0 (got {buckets})")
-    return int(buckets)
-
-
 class _Record:
     """The per-robot arrays of a stage, filled game batch by game batch."""
 
@@ -320,16 +317,6 @@ class _Record:
             refine_moves=self.refine_moves,
             **extra,
         )
-
-
-def plan_stage(
-    snapshot: TopologySnapshot, h: int, states: np.ndarray, n_actions: int, buckets: int = 0
-) -> tuple[Messages, list[np.ndarray]]:
-    """The first step of a stage: every robot's message (:func:`~swarmgames.game.local.
-    broadcast`) and the robots split into batches of similar neighbourhood size
-    (:func:`size_groups`)."""
-    messages = broadcast(snapshot, h, states)
-    return messages, size_groups(messages.sizes, _check_buckets(buckets), n_actions)
 
 
 def evaluate_games(
@@ -413,74 +400,16 @@ def _preferring(marginal: np.ndarray, actions: np.ndarray) -> np.ndarray:
     return out
 
 
-def _check_refine(refine) -> str:
-    if refine not in REFINE_METHODS:
-        raise ValueError(
-            f"refine must be one of {', '.join(map(repr, REFINE_METHODS))} (got {refine!r})"
-        )
-    return refine
-
-
-def solve_stage(
-    solver: Solver,
-    snapshot: TopologySnapshot,
-    h: int,
-    states: np.ndarray,
-    action_model: ActionModel,
-    potentials: Potentials,
-    rng: int | np.random.Generator | None = None,
-    *,
-    virtual_mean: bool | str = "eq3",
-    centralised: bool = False,
-    buckets: int = 0,
-    global_regret: bool = True,
-    keep_games: bool = False,
-    inbox: Inbox | None = None,
-    refine: str = "none",
-) -> StageSolution:
+def solve(problem: StageProblem, rng: int | np.random.Generator | None = None) -> StageSolution:
     """Decide and measure every robot's action for one control period.
 
     Parameters
     ----------
-    solver : a solver from :func:`~swarmgames.game.solvers.make_solver`
-    snapshot : TopologySnapshot
-        Every robot's routing table; robot i's game holds N_i(h) from its own table.
-    h : int
-        Neighbourhood radius in hops (paper: 2).
-    states : ndarray, shape (N, D)
-    action_model : ActionModel
-    potentials : Potentials
+    problem : StageProblem
+        The stage: network, states, messages, action model, potentials, solver and options.
     rng : int, Generator or None
-        Randomness of ``action_choice="sample"`` and of the random solver.
-    virtual_mean : {"eq3", "outside", "exact", "off"} or bool, default "eq3"
-        How a member j with N_j − N_i ≠ ∅ stands in for the robots outside N_i
-        (:func:`~swarmgames.game.local.build_local_games`): its virtual mean (eq. 3, True),
-        the mean over N_j − N_i, the outside robots as fixed context (``"exact"``: the
-        inbox must hold their states) or nothing (``"off"``, False: the paper's comparison).
-    centralised : bool, default False
-        Solve the swarm as one game over every robot (pairwise terms between robots within h
-        hops of each other) instead of N local games; for small swarms (N² A² table).
-    buckets : int, default 0
-        Solve the local games in this many batches of similar size |N_i| (see
-        :func:`size_groups`, which also splits a batch whose pairwise table would exceed
-        ``MAX_PAIR_ELEMS``); 0 = automatic, one batch per 128 robots, at most 8. A batch is
-        padded to its largest game and the pairwise table grows with K², so buckets save
-        work and memory when neighbourhood sizes are uneven. Results do not depend on it,
-        except through the draws of ``rng`` and up to rounding with ``engine="blas"``.
-    global_regret : bool, default True
-        Measure every robot's global and ex-post regret (NaN otherwise).
-    keep_games : bool, default False
-        Return the games and their solution (``batch``, ``solution``) in robot order.
-    inbox : Inbox, optional
-        What every robot knows of its neighbourhood (``sizes`` and ``views(owners)``, for
-        example the belief tables of :mod:`swarmgames.comms`); default: every member's exact
-        state, delivered instantly (:func:`~swarmgames.game.local.broadcast` of ``states``).
-        The measurements (global regret) always use the true games.
-    refine : {"none", "best_response"}, default "none"
-        ``"best_response"``: refine every game's solved profile by best-response sweeps
-        from it to a pure Nash equilibrium (:func:`~swarmgames.game.refine.
-        refine_profiles`; the local regret is then exactly 0), the owner playing its
-        refined action (also with ``action_choice="sample"``). Its cost is ``refine_s``.
+        Randomness of ``action_choice="sample"``, of the random solver and of the order among
+        co-located robots.
 
     Returns
     -------
@@ -489,36 +418,34 @@ def solve_stage(
     Examples
     --------
     >>> import numpy as np
-    >>> from swarmgames.game import DisplacementActions, FunctionPotentials, MeanFieldSolver
+    >>> from swarmgames.game import (DisplacementActions, FunctionPotentials, MeanFieldSolver,
+    ...                              StageProblem)
     >>> from swarmgames.network import TopologySnapshot
     >>> snap = TopologySnapshot.from_hop_matrix(0.0, np.array([[0, 1], [1, 0]]))
     >>> goal = FunctionPotentials(lambda s: -np.linalg.norm(s - [5.0, 0.0], axis=-1))
-    >>> stage = solve_stage(MeanFieldSolver(), snap, 1, np.array([[0.0, 0.0], [0.0, 2.0]]),
-    ...                     DisplacementActions.headings(1.0, 4), goal)
+    >>> problem = StageProblem.ideal(snap, 1, np.array([[0.0, 0.0], [0.0, 2.0]]),
+    ...                              DisplacementActions.headings(1.0, 4), goal,
+    ...                              MeanFieldSolver())
+    >>> stage = solve(problem)
     >>> stage.actions.tolist(), stage.local_regret.tolist()
     ([1, 1], [0.0, 0.0])
     """
     gen = as_generator(rng)
-    refine = _check_refine(refine)
-    states = np.asarray(states, dtype=float)
-    n = states.shape[0] if states.ndim == 2 else 0
-    if centralised:
-        return _solve_centralised(
-            solver, snapshot, h, states, action_model, potentials, gen, buckets, keep_games,
-            refine, global_regret,
-        )  # fmt: skip
-    mode = virtual_mode(virtual_mean)
+    if problem.centralised:
+        return _solve_centralised(problem, gen)
+    solver, potentials, action_model = problem.solver, problem.potentials, problem.action_model
+    states, mode, source = problem.states, problem.virtual_mean, problem.messages
+    n = problem.n_robots
     t0 = time.perf_counter()
-    messages = broadcast(snapshot, h, states)
-    source = messages if inbox is None else inbox
+    messages = _truth(problem)
     sizes = source.sizes
     if mode == "exact":  # the games hold the context too
         sizes = sizes + source.context_sizes
     on_demand = pair_on_demand(solver, potentials)
-    n_act = int(action_model.n_actions)
-    share_min = None if inbox is not None or mode == "exact" else held_sharing(solver, potentials)
+    n_act = problem.n_actions
+    share_min = None if not problem.exact or mode == "exact" else held_sharing(solver, potentials)
     shared = None if share_min is None else sharing_labels(messages, n_act, share_min)
-    groups = size_groups(sizes, _check_buckets(buckets), n_act, on_demand=on_demand, shared=shared)
+    groups = size_groups(sizes, problem.buckets, n_act, on_demand=on_demand, shared=shared)
     build_s = time.perf_counter() - t0
     rec = _Record(n, n_act)
     integrate_s = solve_s = refine_s = 0.0
@@ -527,7 +454,7 @@ def solve_stage(
         batch, pay, t_build, t_int = evaluate_games(
             solver, source, owners, action_model, potentials, virtual_mean=mode
         )
-        sol, ref = _refined(solver.solve_payoffs(pay, gen), pay, refine)
+        sol, ref = _refined(solver.solve_payoffs(pay, gen), pay, problem.refine)
         rec.actions[owners] = sol.actions
         rec.marginal[owners] = sol.marginals[:, 0]
         if ref is not None:
@@ -543,33 +470,33 @@ def solve_stage(
         build_s += t_build
         integrate_s += t_int
         solve_s += sol.solve_time_s
-        if global_regret:
+        if problem.global_regret:
             # Only the owners' rows wait for the joint action, not the whole tables.
             redo = np.asarray(batch.is_virtual).any(axis=1)
             if batch.is_context is not None:
                 redo |= np.asarray(batch.is_context).any(axis=1)
-            if inbox is not None:
+            if not problem.exact:
                 redo |= ~_knows_the_truth(batch, messages.views(owners))
             rows = None if redo.all() else OwnerPayoffs.of(pay)
             if rows is not None and redo.any():  # the others' rows may hold context robots
                 rows = rows.select(~redo)
             batches.append((owners, redo, rows))
-        if keep_games:
+        if problem.keep_games:
             sols.append((batch, sol))
         del pay  # this batch's table is freed before the next one is built
     rec.actions[:] = separate_colocated(states, rec.actions, rec.marginal, rec.action_mask, gen)
     nxt = rec.next_states(states, action_model)
     expost_s = 0.0
-    if global_regret:
+    if problem.global_regret:
         _global_regret(rec, solver, messages, batches, action_model, potentials)
         true_groups = groups
-        if inbox is not None or shared is not None:
+        if not problem.exact or shared is not None:
             # The true neighbourhoods may be sized otherwise, and the ex-post games (each
             # owner deviating alone) are never equal: a table each.
-            true_groups = size_groups(messages.sizes, int(buckets), n_act, on_demand=on_demand)
+            true_groups = size_groups(messages.sizes, problem.buckets, n_act, on_demand=on_demand)
         expost_s = _expost(rec, solver, messages, true_groups, nxt, action_model, potentials)
     extra = {}
-    if keep_games:
+    if problem.keep_games:
         extra = _in_robot_order(groups, sols)
     return rec.solution(
         states,
@@ -583,6 +510,14 @@ def solve_stage(
         expost_s=expost_s,
         **extra,
     )
+
+
+def _truth(problem: StageProblem) -> Messages:
+    """Every robot's true neighbourhood and its members' actual states: the problem's
+    messages when they are exact, else built from the routing tables once."""
+    if problem.exact:
+        return problem.messages
+    return broadcast(problem.snapshot, problem.h, problem.states)
 
 
 def _global_regret(rec: _Record, solver, messages, batches, action_model, potentials) -> None:
@@ -638,19 +573,17 @@ def _in_robot_order(groups, sols) -> dict:
     return {"batch": batch, "solution": sol}
 
 
-def _solve_centralised(
-    solver, snapshot, h, states, action_model, potentials, gen, buckets, keep_games,
-    refine="none", expost=True,
-) -> StageSolution:  # fmt: skip
+def _solve_centralised(problem: StageProblem, gen: np.random.Generator) -> StageSolution:
     """The swarm as one game (refined to a pure NE of that game with ``refine``); every robot
     measured on its true local game."""
-    n = states.shape[0]
+    solver, potentials, action_model = problem.solver, problem.potentials, problem.action_model
+    states, n = problem.states, problem.n_robots
     t0 = time.perf_counter()
-    batch = centralised_game(snapshot, h, states, action_model)
+    batch = centralised_game(problem.snapshot, problem.h, states, action_model)
     t1 = time.perf_counter()
     pay = solver.evaluate(batch, potentials)
     t2 = time.perf_counter()
-    sol, ref = _refined(solver.solve_payoffs(pay, gen), pay, refine)
+    sol, ref = _refined(solver.solve_payoffs(pay, gen), pay, problem.refine)
     actions = np.asarray(sol.profile[0], dtype=np.int64)
     marginal = sol.marginals[0]
     if ref is not None:
@@ -659,18 +592,18 @@ def _solve_centralised(
         actions = sample_actions(sol.marginals[0], batch.action_mask[0], actions, gen)
     rec = _Record(n)
     rec.actions[:] = separate_colocated(states, actions, marginal, batch.action_mask[0], gen)
-    messages, groups = plan_stage(snapshot, h, states, int(action_model.n_actions), buckets)
+    messages, groups = plan_stage(problem)
     _true_measures(rec, solver, messages, groups, action_model, potentials)
     nxt = rec.next_states(states, action_model)
     expost_s = 0.0
-    if expost:
+    if problem.global_regret:
         expost_s = _expost(rec, solver, messages, groups, nxt, action_model, potentials)
     rec.iterations[:] = int(sol.iterations[0])
     rec.converged[:] = bool(sol.converged[0])
     if ref is not None:
         rec.refine_sweeps[:] = int(ref.sweeps[0])
         rec.refine_moves[:] = int(ref.moves[0])
-    extra = {"batch": batch, "solution": sol} if keep_games else {}
+    extra = {"batch": batch, "solution": sol} if problem.keep_games else {}
     return rec.solution(
         states,
         action_model,
@@ -685,83 +618,76 @@ def _solve_centralised(
     )
 
 
-def measure_stage(
-    solver: Solver,
-    snapshot: TopologySnapshot,
-    h: int,
-    states: np.ndarray,
-    action_model: ActionModel,
-    potentials: Potentials,
-    actions,
-    *,
-    buckets: int = 0,
-    expost: bool = True,
-) -> StageSolution:
-    """Measure given actions as :func:`solve_stage` measures its own: every robot's payoff,
-    local and global regret in its true local game (actual states, no virtual means) at the
+def plan_stage(problem: StageProblem) -> tuple[Messages, list[np.ndarray]]:
+    """The first step of a stage's measurements: every robot's true neighbourhood with its
+    members' actual states (the problem's messages when they are exact, else
+    :func:`~swarmgames.game.local.broadcast` of the routing tables) and the robots split into
+    batches of similar neighbourhood size (:func:`size_groups`)."""
+    messages = _truth(problem)
+    return messages, size_groups(messages.sizes, problem.buckets, problem.n_actions)
+
+
+def _given_actions(problem: StageProblem, actions) -> _Record:
+    """A record holding the given joint action, checked against the problem's N robots."""
+    actions = np.asarray(actions, dtype=np.int64)
+    n = problem.n_robots
+    if actions.shape != (n,):
+        raise ValueError(f"actions must have shape ({n},) (got {actions.shape})")
+    rec = _Record(n)
+    rec.actions[:] = actions
+    return rec
+
+
+def measure_stage(problem: StageProblem, actions, *, expost: bool = True) -> StageSolution:
+    """Measure given actions as :func:`solve` measures its own: every robot's payoff, local
+    and global regret in its true local game (actual states, no virtual means) at the
     realised joint action, and (``expost``) its ex-post regret against the states the
     others' actions reach.
 
-    For controllers that are not games (the Lloyd baseline). ``iterations`` and ``converged``
-    are 0 and false, ``solve_s`` is 0 and ``integrate_s`` is the evaluation of the true games;
-    ``n_games`` is N.
+    For controllers that are not games (a mission's baseline such as Lloyd's, the MPC's
+    chosen actions, a learned policy). The problem's messages and options other than
+    ``buckets`` are not used. ``iterations`` and ``converged`` are 0 and false, ``solve_s``
+    is 0 and ``integrate_s`` is the evaluation of the true games; ``n_games`` is N.
     """
-    states = np.asarray(states, dtype=float)
-    actions = np.asarray(actions, dtype=np.int64)
-    n = states.shape[0]
-    if actions.shape != (n,):
-        raise ValueError(f"actions must have shape ({n},) (got {actions.shape})")
-    messages, groups = plan_stage(snapshot, h, states, int(action_model.n_actions), buckets)
-    rec = _Record(n)
-    rec.actions[:] = actions
+    rec = _given_actions(problem, actions)
+    messages, groups = plan_stage(problem)
+    solver, potentials, action_model = problem.solver, problem.potentials, problem.action_model
     integrate_s = _true_measures(rec, solver, messages, groups, action_model, potentials)
-    nxt = rec.next_states(states, action_model)
+    nxt = rec.next_states(problem.states, action_model)
     expost_s = 0.0
     if expost:
         expost_s = _expost(rec, solver, messages, groups, nxt, action_model, potentials)
     return rec.solution(
-        states, action_model, nxt, integrate_s=integrate_s, n_games=n, expost_s=expost_s
+        problem.states,
+        action_model,
+        nxt,
+        integrate_s=integrate_s,
+        n_games=problem.n_robots,
+        expost_s=expost_s,
     )
 
 
-def measure_expost(
-    solver: Solver,
-    snapshot: TopologySnapshot,
-    h: int,
-    states: np.ndarray,
-    next_states: np.ndarray,
-    actions,
-    action_model: ActionModel,
-    potentials: Potentials,
-    *,
-    buckets: int = 0,
-) -> np.ndarray:
+def measure_expost(problem: StageProblem, actions, next_states: np.ndarray) -> np.ndarray:
     """Ex-post regret of every robot (:mod:`swarmgames.game.expost`): robot i's true local
-    game in ``snapshot`` (actual ``states``, N_i(h), no virtual means) with every other
-    member at the state it reached, ``next_states``, scored under ``solver``'s weights at
-    robot i's action ``actions[i]``.
+    game (actual states, N_i(h), no virtual means) with every other member at the state it
+    reached, ``next_states`` (N, D), scored under the problem's solver weights at robot i's
+    action ``actions[i]``.
 
     For a loop whose robots do not all reach the states their actions lead to (a crashed
-    robot stays where it is); :func:`solve_stage` and :func:`measure_stage` measure it from
-    the action model's next states.
+    robot stays where it is); :func:`solve` and :func:`measure_stage` measure it from the
+    action model's next states.
 
     Returns
     -------
     ndarray, shape (N,)
         >= 0; equal to the global regret where every neighbour stands still.
     """
-    states = np.asarray(states, dtype=float)
-    actions = np.asarray(actions, dtype=np.int64)
-    n = states.shape[0]
+    rec = _given_actions(problem, actions)
     nxt = np.asarray(next_states, dtype=float)
-    if actions.shape != (n,):
-        raise ValueError(f"actions must have shape ({n},) (got {actions.shape})")
-    if nxt.shape != states.shape:
-        raise ValueError(f"next_states must have shape {states.shape} (got {nxt.shape})")
-    messages, groups = plan_stage(snapshot, h, states, int(action_model.n_actions), buckets)
-    rec = _Record(n)
-    rec.actions[:] = actions
-    _expost(rec, solver, messages, groups, nxt, action_model, potentials)
+    if nxt.shape != problem.states.shape:
+        raise ValueError(f"next_states must have shape {problem.states.shape} (got {nxt.shape})")
+    messages, groups = plan_stage(problem)
+    _expost(rec, problem.solver, messages, groups, nxt, problem.action_model, problem.potentials)
     return rec.expost_regret
 
 

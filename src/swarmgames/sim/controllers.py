@@ -1,9 +1,10 @@
 """Controllers of the stage loop: the graphical game (the paper's method) and the Lloyd baseline.
 
-Both are thin: they turn the configuration into the parameters of the game layer's one stage
-pipeline (:func:`~swarmgames.game.stage.solve_stage`, :func:`~swarmgames.game.stage.
-measure_stage`) and return its :class:`~swarmgames.game.stage.StageSolution`, so every
-controller is measured the same way:
+Both are thin: they turn an observed stage and the configuration into a
+:class:`~swarmgames.game.problem.StageProblem` (:meth:`~Controller.problem`), solve it with
+the game layer's one stage pipeline (:func:`~swarmgames.game.stage.solve`) or measure given
+actions on it (:func:`~swarmgames.game.stage.measure_stage`), and return its
+:class:`~swarmgames.game.stage.StageSolution`, so every controller is measured the same way:
 
 * ``payoff`` — :math:`M_i` (eq. 1) of robot i's local game at the profile robot i settles on;
   for the Lloyd and centralised controllers, which have no local games of their own, robot
@@ -25,15 +26,23 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
+from typing import Protocol
 
 import numpy as np
 
 from swarmgames.errors import ConfigError
 from swarmgames.game import Solver, make_solver
-from swarmgames.game.stage import StageSolution, measure_expost, measure_stage, solve_stage
+from swarmgames.game.problem import StageProblem
+from swarmgames.game.stage import StageSolution, measure_expost, measure_stage, solve
 from swarmgames.missions.coverage.lloyd import lloyd_actions
 
-__all__ = ["GameController", "LloydController", "make_controller", "solver_from_config"]
+__all__ = [
+    "Controller",
+    "GameController",
+    "LloydController",
+    "make_controller",
+    "solver_from_config",
+]
 
 
 def solver_from_config(game) -> Solver:
@@ -61,8 +70,42 @@ def solver_from_config(game) -> Solver:
     return make_solver(name, **params)
 
 
+class Controller(Protocol):
+    """What the stage loop (:class:`~swarmgames.sim.loop.StageLoop`) asks of a controller.
+
+    Attributes
+    ----------
+    hops : int
+        h, the neighbourhood radius of its stage problems.
+    """
+
+    hops: int
+
+    def plan(self, loop) -> None:
+        """Before the stage's messages are exchanged: look ahead on ``loop`` (restored to
+        where it was afterwards), or nothing."""
+        ...
+
+    def problem(self, t: float, snapshot, states, messages, *, keep_games=False) -> StageProblem:
+        """The stage problem at time ``t`` with the routing tables ``snapshot``, the true
+        ``states`` and the ``messages`` every robot holds."""
+        ...
+
+    def decide(self, problem: StageProblem, rng: np.random.Generator) -> StageSolution:
+        """Every robot's action and its measures."""
+        ...
+
+    def measure(self, problem: StageProblem, actions, *, expost: bool | None = None):
+        """Given actions with the measures the controller takes of its own decisions."""
+        ...
+
+    def expost_regret(self, problem: StageProblem, actions, next_states) -> np.ndarray:
+        """Every robot's ex-post regret against the states the robots reached, (N,)."""
+        ...
+
+
 class _Controller:
-    """What both controllers share: the solver that measures, the stage's parameters."""
+    """What every controller shares: the solver that measures, the stage's parameters."""
 
     def __init__(self, config, mission) -> None:
         self.mission = mission
@@ -71,39 +114,47 @@ class _Controller:
         self.solver_name = config.game.solver
         self.solver = solver_from_config(config.game)
         self.global_regret = bool(config.sim.global_regret)
+        self.virtual_mean = config.game.virtual_mean  # normalised by the schema: "eq3", ...
+        self.centralised = config.game.solver == "centralised"
+        self.refine = config.game.refine
 
-    def measure(self, snapshot, states, actions, *, expost: bool | None = None) -> StageSolution:
-        """Given ``actions`` with the measures :func:`~swarmgames.game.stage.solve_stage`
-        takes of its own (payoff, local and global regret on the true local games, and the
-        ex-post regret when ``expost``; default: with ``sim.global_regret``)."""
+    def plan(self, loop) -> None:
+        """Nothing: the controller decides from the stage alone."""
+
+    def problem(self, t: float, snapshot, states, messages, *, keep_games=False) -> StageProblem:
+        """The stage problem at time ``t`` (s) with the routing tables ``snapshot``, the true
+        ``states`` (N, D) and the ``messages`` every robot holds, with this controller's
+        mission, solver and options; ``keep_games``: the solved games and marginals are kept
+        in the solution."""
         m = self.mission
-        return measure_stage(
-            self.solver,
-            snapshot,
-            self.hops,
-            states,
-            m.action_model,
-            m.potentials,
-            actions,
+        return StageProblem(
+            t=t,
+            snapshot=snapshot,
+            h=self.hops,
+            states=states,
+            messages=messages,
+            action_model=m.action_model,
+            potentials=m.potentials,
+            solver=self.solver,
+            virtual_mean=self.virtual_mean,
+            centralised=self.centralised,
             buckets=self.buckets,
-            expost=self.global_regret if expost is None else bool(expost),
+            global_regret=self.global_regret,
+            keep_games=keep_games,
+            refine=self.refine,
         )
 
-    def expost_regret(self, snapshot, states, actions, next_states) -> np.ndarray:
+    def measure(self, problem: StageProblem, actions, *, expost: bool | None = None):
+        """Given ``actions`` with the measures :func:`~swarmgames.game.stage.solve` takes of
+        its own (payoff, local and global regret on the true local games, and the ex-post
+        regret when ``expost``; default: with ``sim.global_regret``)."""
+        expost = self.global_regret if expost is None else bool(expost)
+        return measure_stage(problem, actions, expost=expost)
+
+    def expost_regret(self, problem: StageProblem, actions, next_states) -> np.ndarray:
         """Every robot's ex-post regret against the states ``next_states`` the robots
         reached (:func:`~swarmgames.game.stage.measure_expost`), (N,)."""
-        m = self.mission
-        return measure_expost(
-            self.solver,
-            snapshot,
-            self.hops,
-            states,
-            next_states,
-            actions,
-            m.action_model,
-            m.potentials,
-            buckets=self.buckets,
-        )
+        return measure_expost(problem, actions, next_states)
 
 
 class GameController(_Controller):
@@ -117,34 +168,10 @@ class GameController(_Controller):
     mission : Mission
     """
 
-    def __init__(self, config, mission) -> None:
-        super().__init__(config, mission)
-        self.virtual_mean = config.game.virtual_mean  # normalised by the schema: "eq3", ...
-        self.centralised = config.game.solver == "centralised"
-        self.refine = config.game.refine
-
-    def decide(self, snapshot, states, rng, inbox=None, keep_games=False) -> StageSolution:
-        """Every robot's action at ``states`` with the tables of ``snapshot``, each local game
-        built from ``inbox`` (what the robots know; default: exact, instant delivery);
-        ``keep_games``: the solved games and marginals are kept in the solution."""
-        m = self.mission
+    def decide(self, problem: StageProblem, rng) -> StageSolution:
+        """Every robot's action in ``problem`` (:func:`~swarmgames.game.stage.solve`)."""
         try:
-            return solve_stage(
-                self.solver,
-                snapshot,
-                self.hops,
-                states,
-                m.action_model,
-                m.potentials,
-                rng,
-                virtual_mean=self.virtual_mean,
-                centralised=self.centralised,
-                buckets=self.buckets,
-                global_regret=self.global_regret,
-                inbox=inbox,
-                keep_games=keep_games,
-                refine=self.refine,
-            )
+            return solve(problem, rng)
         except ValueError as exc:
             if self.solver_name != "exact":
                 raise
@@ -172,15 +199,15 @@ class LloydController(_Controller):
                 f"{getattr(mission, 'name', config.scenario)!r} has none"
             )
 
-    def decide(self, snapshot, states, rng, inbox=None) -> StageSolution:
+    def decide(self, problem: StageProblem, rng) -> StageSolution:
         """Each robot's move toward its Voronoi centroid (from every true position: the
-        baseline is centralised, ``inbox`` is unused), and its measures."""
-        m = self.mission
+        baseline is centralised, the messages are unused), and its measures."""
+        m, states = self.mission, problem.states
         n = states.shape[0]
         t0 = time.perf_counter()
         actions = lloyd_actions(states, m.density, m.action_model)
         solve_s = time.perf_counter() - t0
-        stage = self.measure(snapshot, states, actions)
+        stage = self.measure(problem, actions)
         return replace(
             stage,
             iterations=np.ones(n, dtype=np.int64),

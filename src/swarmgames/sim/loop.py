@@ -4,10 +4,11 @@ One stage at time :math:`t_k = t_{warm} + k\\,\\Delta t`:
 
 1. the network provider is advanced to :math:`t_k` with the robots held at the positions they
    reached (OLSR keeps running between stages, so its tables lag the geometry as in ns-3);
-2. every robot reads its neighbourhood :math:`N_i(h)` from its own routing table;
-3. the controller decides every robot's action (the stage pipeline of
-   :mod:`swarmgames.game.stage`: all local games built, evaluated, solved and measured in
-   batches; or the Lloyd baseline);
+2. every robot reads its neighbourhood :math:`N_i(h)` from its own routing table, and the
+   communication model delivers the stage's state messages;
+3. the controller turns the stage into a :class:`~swarmgames.game.problem.StageProblem` and
+   decides every robot's action (the stage pipeline of :mod:`swarmgames.game.stage`: all
+   local games built, evaluated, solved and measured in batches; or a mission's baseline);
 4. the mission measures the stage (:meth:`~swarmgames.missions.protocol.Mission.swarm_metrics`)
    and the loop measures the network and the oscillation (:func:`oscillation`);
 5. the actions are applied; the new states hold until the next stage.
@@ -264,8 +265,9 @@ class StageView:
         The true states.
     snapshot : TopologySnapshot
         The routing tables.
-    inbox : Inbox or None
-        What every robot has heard (None: exact, instant delivery).
+    messages : Inbox
+        What every robot holds of its neighbourhood at the decision (the communication
+        model's messages; exact ones with ideal delivery).
     heard : CommsStats
         The exchange's measures.
     alive, radio : ndarray of bool, shape (N,)
@@ -277,11 +279,17 @@ class StageView:
     t: float
     states: np.ndarray
     snapshot: TopologySnapshot
-    inbox: Any
+    messages: Any
     heard: Any
     alive: np.ndarray
     radio: np.ndarray
     started: float
+
+    @property
+    def problem_fields(self) -> tuple:
+        """``(t, snapshot, states, messages)``: what a controller's stage problem is built
+        from (:meth:`~swarmgames.sim.controllers.Controller.problem`)."""
+        return self.t, self.snapshot, self.states, self.messages
 
 
 @dataclass(frozen=True, eq=False)
@@ -324,8 +332,9 @@ class StageLoop:
     ----------
     provider : NeighbourhoodProvider
         Network; reset at time 0 and advanced to ``warmup_s`` by :meth:`start`.
-    controller : object with ``decide(snapshot, states, rng, inbox=None) -> StageSolution``
-        The game controller or the Lloyd baseline (:mod:`swarmgames.sim.controllers`).
+    controller : Controller
+        The game controller, a mission's baseline or the MPC controller
+        (:class:`~swarmgames.sim.controllers.Controller`).
     mission : Mission
         Its ``swarm_metrics`` (and ``robot_metrics``, if any) are recorded every stage.
     period_s, warmup_s : float
@@ -369,7 +378,7 @@ class StageLoop:
         if comms is None:
             from swarmgames.comms import IdealComms
 
-            comms = IdealComms(getattr(controller, "hops", 1))
+            comms = IdealComms(controller.hops)
         self.comms = comms
         self.faults = faults
         self._robot_metrics = getattr(mission, "robot_metrics", None)
@@ -405,16 +414,16 @@ class StageLoop:
     def step(self) -> StageRecord:
         """Run the next stage with the controller's decision and return its record.
 
-        A controller with a ``plan(loop)`` method (the MPC controller) is called first, before
-        the stage's messages are exchanged; it may predict on this loop and must restore it.
+        The controller's ``plan(loop)`` is called first, before the stage's messages are
+        exchanged (the MPC controller predicts on this loop there and restores it); then the
+        stage's problem (``controller.problem``) is decided.
         """
         started = time.perf_counter()
-        plan = getattr(self.controller, "plan", None)
-        if plan is not None and self._view is None:
-            plan(self)
+        if self._view is None:
+            self.controller.plan(self)
         view = self.observe(started)
         try:
-            dec = self.controller.decide(view.snapshot, view.states, self.rng, inbox=view.inbox)
+            dec = self.controller.decide(self.controller.problem(*view.problem_fields), self.rng)
         except PayoffError as exc:
             raise PayoffError(
                 f"mission {self.mission.name!r}, stage {self.stage + 1} (t = {view.t:g} s): {exc}"
@@ -428,7 +437,7 @@ class StageLoop:
 
     def observe(self, started: float | None = None) -> StageView:
         """The next stage up to the decision: the messages of the stage exchanged, what every
-        robot knows (its inbox) returned. Idempotent until :meth:`act` (the messages are
+        robot holds (its messages) returned. Idempotent until :meth:`act` (the messages are
         exchanged once). ``started``: when the stage's work began (``time.perf_counter()``;
         default: now), for its wall time."""
         if self.states is None:
@@ -438,8 +447,8 @@ class StageLoop:
             t = self.warmup_s + self.stage * self.period_s
             alive, radio = f.alive(t), f.radio(t, pos)
             t0 = time.perf_counter() if started is None else started
-            inbox, heard = self.comms.exchange(t, self._snap, pos, self.comms_rng, active=radio)
-            self._view = StageView(t, pos, self._snap, inbox, heard, alive, radio, t0)
+            messages, heard = self.comms.exchange(t, self._snap, pos, self.comms_rng, active=radio)
+            self._view = StageView(t, pos, self._snap, messages, heard, alive, radio, t0)
         return self._view
 
     def act(self, dec) -> StageRecord:
@@ -460,10 +469,11 @@ class StageLoop:
         new_pos = np.array(dec.next_states, dtype=float)
         new_pos[~alive] = pos[~alive]
         new_pos[~alive, 3:] = 0.0  # a crashed robot stops
-        expost = getattr(self.controller, "expost_regret", None)
-        if expost is not None and (~alive).any() and np.isfinite(dec.expost_regret).any():
+        if (~alive).any() and np.isfinite(dec.expost_regret).any():
             # The ex-post regret is against the states reached: a crashed robot's own.
-            dec = replace(dec, expost_regret=expost(snap, pos, dec.actions, new_pos))
+            problem = self.controller.problem(*view.problem_fields)
+            regret = self.controller.expost_regret(problem, dec.actions, new_pos)
+            dec = replace(dec, expost_regret=regret)
         t_next = t + self.period_s
         snap_next = self.provider.advance(
             t_next, f.network_positions(new_pos, f.radio(t_next, new_pos))

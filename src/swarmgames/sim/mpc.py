@@ -45,6 +45,8 @@ from dataclasses import replace
 import numpy as np
 
 from swarmgames.game.actions import action_mask_of
+from swarmgames.game.problem import StageProblem
+from swarmgames.game.stage import StageSolution
 from swarmgames.sim.controllers import GameController
 
 __all__ = ["MpcController"]
@@ -84,44 +86,44 @@ class MpcController:
             return
         t0 = time.perf_counter()
         saved = loop.state()
-        controller = loop.controller
-        loop.controller = self.inner  # the predicted stages after the first are myopic
         try:
             view = loop.observe()
-            myopic = self.inner.decide(
-                view.snapshot, view.states, loop.rng, inbox=view.inbox, keep_games=True
-            )
+            problem = self.inner.problem(*view.problem_fields, keep_games=True)
+            myopic = self.inner.decide(problem, loop.rng)
             candidates = self._candidates(loop, view, myopic)
             scores = np.array([self._score(loop, saved, c) for c in candidates])
         finally:
             loop.restore(saved)
-            loop.controller = controller
         best = int(np.argmax(scores))  # the first of the best: the myopic one on a tie
         self.last_scores = scores
         self._plan = None if best == 0 else candidates[best]
         self._plan_s = time.perf_counter() - t0
 
-    def decide(self, snapshot, states, rng, inbox=None):
+    def problem(self, t: float, snapshot, states, messages, *, keep_games=False) -> StageProblem:
+        """The stage problem (the game controller's)."""
+        return self.inner.problem(t, snapshot, states, messages, keep_games=keep_games)
+
+    def decide(self, problem: StageProblem, rng) -> StageSolution:
         """The planned first action of this stage (the myopic decision when it is the best,
         or without a plan)."""
         chosen, planning = self._plan, self._plan_s
         self._plan, self._plan_s = None, 0.0
         if chosen is None:
-            dec = self.inner.decide(snapshot, states, rng, inbox=inbox)
+            dec = self.inner.decide(problem, rng)
             return replace(dec, solve_s=dec.solve_s + planning) if planning else dec
         t0 = time.perf_counter()
-        dec = self.measure(snapshot, states, chosen)
+        dec = self.measure(problem, chosen)
         return replace(dec, solve_s=planning + time.perf_counter() - t0)
 
-    def measure(self, snapshot, states, actions, *, expost=None):
+    def measure(self, problem: StageProblem, actions, *, expost=None) -> StageSolution:
         """Given ``actions`` with their measures on the true local games (as the game
         controller's :meth:`~swarmgames.sim.controllers.GameController.measure`)."""
-        return self.inner.measure(snapshot, states, actions, expost=expost)
+        return self.inner.measure(problem, actions, expost=expost)
 
-    def expost_regret(self, snapshot, states, actions, next_states):
+    def expost_regret(self, problem: StageProblem, actions, next_states) -> np.ndarray:
         """Every robot's ex-post regret against the states the robots reached (the game
         controller's :meth:`~swarmgames.sim.controllers.GameController.expost_regret`)."""
-        return self.inner.expost_regret(snapshot, states, actions, next_states)
+        return self.inner.expost_regret(problem, actions, next_states)
 
     # ------------------------------------------------------------------ planning
     def _candidates(self, loop, view, myopic) -> list[np.ndarray]:
@@ -156,13 +158,11 @@ class MpcController:
         loop.restore(saved)
         total = 0.0
         for step in range(self.horizon):
-            view = loop.observe()
+            problem = self.inner.problem(*loop.observe().problem_fields)
             if step:
-                actions = self.inner.decide(
-                    view.snapshot, view.states, loop.rng, inbox=view.inbox
-                ).actions
+                actions = self.inner.decide(problem, loop.rng).actions
             # A predicted stage is scored by its payoff: its ex-post regret is not needed.
-            record = loop.act(self.measure(view.snapshot, view.states, actions, expost=False))
+            record = loop.act(self.measure(problem, actions, expost=False))
             pay = np.where(record.robot["alive"], record.robot["payoff"], np.nan)
             total += float(np.nanmean(pay)) if np.isfinite(pay).any() else 0.0
         return total
