@@ -26,7 +26,7 @@ and the public API all call once per control period:
 
 ``centralised=True`` solves the swarm as one game instead (the centralised baseline) and
 measures every robot on its true local game. :func:`measure_stage` measures given actions the
-same way (for controllers that are not games, such as the Lloyd baseline);
+same way (for controllers that are not games, such as a mission's baselines);
 :func:`stage_regret` measures a joint action against any snapshot taken as the truth.
 
 References
@@ -702,7 +702,7 @@ def measure_stage(
     realised joint action, and (``expost``) its ex-post regret against the states the
     others' actions reach.
 
-    For controllers that are not games (the Lloyd baseline). ``iterations`` and ``converged``
+    For controllers that are not games (a mission's baselines). ``iterations`` and ``converged``
     are 0 and false, ``solve_s`` is 0 and ``integrate_s`` is the evaluation of the true games;
     ``n_games`` is N.
     """

@@ -7,7 +7,7 @@ One stage at time :math:`t_k = t_{warm} + k\\,\\Delta t`:
 2. every robot reads its neighbourhood :math:`N_i(h)` from its own routing table;
 3. the controller decides every robot's action (the stage pipeline of
    :mod:`swarmgames.game.stage`: all local games built, evaluated, solved and measured in
-   batches; or the Lloyd baseline);
+   batches; or a baseline of the mission);
 4. the mission measures the stage (:meth:`~swarmgames.missions.protocol.Mission.swarm_metrics`)
    and the loop measures the network and the oscillation (:func:`oscillation`);
 5. the actions are applied; the new states hold until the next stage.
@@ -325,7 +325,7 @@ class StageLoop:
     provider : NeighbourhoodProvider
         Network; reset at time 0 and advanced to ``warmup_s`` by :meth:`start`.
     controller : object with ``decide(snapshot, states, rng, inbox=None) -> StageSolution``
-        The game controller or the Lloyd baseline (:mod:`swarmgames.sim.controllers`).
+        The game controller or a mission's baseline (:mod:`swarmgames.sim.controllers`).
     mission : Mission
         Its ``swarm_metrics`` (and ``robot_metrics``, if any) are recorded every stage.
     period_s, warmup_s : float
