@@ -58,6 +58,24 @@ def test_bad_virtual_mean_exits_2_naming_field_rule_and_value(runner):
     assert "(got 'mean')" in res.output and "Traceback" not in res.output
 
 
+@pytest.mark.parametrize(
+    ("scenario", "controller", "offers"),
+    [("rendezvous", "lloyd", "none"), ("coverage", "voronoi", "'lloyd'")],
+)
+def test_config_check_names_the_baselines_a_mission_offers(
+    runner, tmp_path, scenario, controller, offers
+):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(f'scenario = "{scenario}"\n[sim]\ncontroller = "{controller}"\n')
+    res = runner.invoke(cli, ["config", "check", str(bad)])
+    assert res.exit_code == 2
+    assert (
+        f"sim.controller must be 'game', 'mpc' or a baseline of mission '{scenario}' (it "
+        f"offers: {offers}) (got '{controller}')"
+    ) in res.output
+    assert "Traceback" not in res.output
+
+
 def test_config_show_prints_the_old_switch_as_the_variant_name(runner):
     res = runner.invoke(cli, ["config", "show", "--set", "game.virtual_mean=false"])
     assert res.exit_code == 0 and 'virtual_mean = "off"' in res.output

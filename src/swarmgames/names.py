@@ -1,4 +1,5 @@
-"""The names of the built-in backends, solvers, refinements and engines, kept in one place.
+"""The names of the built-in backends, solvers, refinements, engines and controllers, kept in
+one place.
 
 The layers that implement them (:mod:`swarmgames.network.factory`,
 :mod:`swarmgames.game.solvers`, :mod:`swarmgames.game.meanfield`) and the configuration
@@ -12,6 +13,7 @@ from __future__ import annotations
 __all__ = [
     "BACKENDS",
     "COMMS_MODELS",
+    "CONTROLLERS",
     "ENGINES",
     "GAME_SOLVERS",
     "PAIR_WEIGHTINGS",
@@ -22,6 +24,10 @@ __all__ = [
 
 #: Network providers (``network.backend``).
 BACKENDS = ("olsr", "oracle", "disk", "knn", "ns3")
+
+#: The simulation's own controllers (``sim.controller``); the other values it accepts are the
+#: baselines a mission declares, which may not take these names.
+CONTROLLERS = ("game", "mpc")
 
 #: Local-game solvers (:func:`swarmgames.game.solvers.make_solver`).
 SOLVERS = ("mean_field", "exact", "best_response", "random")

@@ -37,3 +37,15 @@ def test_actions_move_toward_centroid_and_stay_there(roi):
     a = lloyd_actions(np.array([[300.0, 0.0, 30.0]]), roi, model)
     assert a.tolist() == [5]  # heading 180 degrees, toward the mean
     assert lloyd_actions(np.array([[0.0, 0.0, 30.0]]), roi, model).tolist() == [0]
+
+
+def test_the_coverage_mission_offers_lloyd_as_a_baseline():
+    from swarmgames.config import ScenarioConfig
+    from swarmgames.missions import get_mission
+
+    entry = get_mission("coverage")
+    mission = entry.build(ScenarioConfig())
+    assert entry.baselines == ("lloyd",) and list(mission.baselines) == ["lloyd"]
+    states = mission.initial_states(7, np.random.default_rng(3))
+    expected = lloyd_actions(states, mission.roi, mission.action_model)
+    np.testing.assert_array_equal(mission.baselines["lloyd"](states), expected)

@@ -122,6 +122,24 @@ class _BadHooks(GoalMission):
         return (1.0, 0.0, 0.0, 1.0)
 
 
+def _raises(states):
+    raise RuntimeError("no plan")
+
+
+class _BadBaselines(GoalMission):
+    @property
+    def baselines(self):
+        return {
+            "game": lambda s: np.zeros(len(s), dtype=int),
+            "short": lambda s: np.zeros(2, dtype=int),
+            "real": lambda s: np.zeros(len(s)),
+            "far": lambda s: np.full(len(s), 99),
+            "stuck": _raises,
+            "moving": lambda s: np.zeros(s.__iadd__(1.0).shape[0], dtype=int),
+            "noop": 3,
+        }
+
+
 @pytest.mark.parametrize(
     ("mission", "problems"),
     [
@@ -149,6 +167,20 @@ class _BadHooks(GoalMission):
             _broken(potentials=FunctionPotentials(lambda s: np.full(s.shape[:-1], np.nan))),
             ["unary potential is not finite"],
         ),
+        (
+            _BadBaselines(),
+            [
+                "baseline names must be Python identifiers, none of them 'game' or 'mpc' "
+                "(got 'game')",
+                "baselines['short'](states) must return an integer array of shape (4,) "
+                "(got int64 (2,))",
+                "baselines['real'](states) must return an integer array of shape (4,)",
+                "baselines['far'](states) must return action indices in [0, 5)",
+                "baselines['stuck'](states) raised RuntimeError: no plan",
+                "baselines['moving'](states) changed the states it was given",
+                "baselines['noop'] must be callable (got int)",
+            ],
+        ),
     ],
 )
 def test_check_mission_names_every_problem(mission, problems):
@@ -167,6 +199,54 @@ def test_check_mission_reports_missing_attributes_at_once():
         check_mission(Half())
     assert len(info.value.problems) == 5  # every required attribute but the name
     assert "missing required attribute 'initial_states'" in str(info.value)
+
+
+# --------------------------------------------------------------------------- baselines
+
+
+def _toward_goal(states):
+    """Every robot's heading nearest the bearing to the goal (HeadingActions(10, 4): stay,
+    then east, north, west, south)."""
+    bearing = np.arctan2(*(GOAL - states[:, :2]).T[::-1])
+    return (np.round(bearing / (np.pi / 2)).astype(np.int64) % 4) + 1
+
+
+class BaselineGoalMission(GoalMission):
+    @property
+    def baselines(self):
+        return {"straight": _toward_goal}
+
+
+def test_a_mission_baseline_runs_by_name_and_is_measured_like_the_game(tmp_path):
+    entry = MissionEntry(
+        "goalb", GoalConfig, lambda config: BaselineGoalMission(), baselines=("straight",)
+    )
+    register_mission(entry, replace=True)
+    try:
+        check_mission(BaselineGoalMission())
+        cfg = parse_config(
+            {
+                "scenario": "goalb",
+                "swarm": {"n_robots": 3},
+                "sim": {"controller": "straight", "duration_s": 5.0, "animation": False},
+            }
+        )
+        res = run(cfg, progress=False, provider=DiskOracle())
+        with pytest.raises(ConfigError, match=r"it offers: 'straight'\) \(got 'lloyd'\)"):
+            cfg.with_overrides({"sim.controller": "lloyd"})
+    finally:
+        unregister_mission("goalb")
+    sw, m = res.to_frame(), res.to_frame("metrics")
+    assert res.summary["controller"] == "straight"
+    assert sw["goal_distance_m"].iloc[-1] < sw["goal_distance_m"].iloc[0] - 30.0
+    assert (m["iterations"] == 1).all() and m["converged"].all()
+    assert np.isfinite(m[["payoff", "local_regret", "global_regret"]]).all().all()
+
+
+@pytest.mark.parametrize("baselines", [("game",), ("two words",), ["straight"], ("mpc", "x")])
+def test_an_entry_refuses_bad_baseline_names(baselines):
+    with pytest.raises(ValueError, match=r"baselines must be a tuple of Python identifiers"):
+        MissionEntry("x", GoalConfig, _build, baselines=baselines)
 
 
 # --------------------------------------------------------------------------- the registry

@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from swarmgames.config import ScenarioConfig, parse_config
+from swarmgames.config import ScenarioConfig, parse_config, resolve_scenario
 from swarmgames.errors import ConfigError, RunFolderError
 from swarmgames.game.local import broadcast
 from swarmgames.missions.protocol import COMMS_COLUMNS, NETWORK_COLUMNS, SWARM_HEAD
@@ -361,7 +361,11 @@ def test_twenty_robots_reach_consensus():
     assert s["coverage_end_dbm"] > -92.0  # -92.28 dBm with the unary penalty, not settled
 
 
-def test_lloyd_needs_a_mission_with_a_density():
-    cfg = parse_config({"name": "r", "scenario": "rendezvous", "sim": {"controller": "lloyd"}})
-    with pytest.raises(ConfigError, match="needs a mission with a density"):
-        run(cfg, progress=False, provider=DiskOracle())
+def test_a_baseline_the_mission_does_not_offer_is_refused():
+    with pytest.raises(ConfigError, match=r"mission 'rendezvous' \(it offers: none\)"):
+        parse_config({"name": "r", "scenario": "rendezvous", "sim": {"controller": "lloyd"}})
+    # A mission object given to run() is asked for the baseline too.
+    cfg = _cfg({"sim": {"controller": "lloyd"}})
+    mission = build_mission(resolve_scenario("rendezvous"))
+    with pytest.raises(ConfigError, match=r"sim\.controller .* \(got 'lloyd'\)"):
+        run(cfg, progress=False, provider=DiskOracle(), mission=mission)

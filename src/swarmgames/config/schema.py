@@ -33,6 +33,7 @@ from pydantic import Field, SerializeAsAny, field_validator, model_validator
 from swarmgames.names import (
     BACKENDS,
     COMMS_MODELS,
+    CONTROLLERS,
     ENGINES,
     GAME_SOLVERS,
     PAIR_WEIGHTINGS,
@@ -501,13 +502,14 @@ class SimConfig(_Section):
             "simulates every message of it before the first stage), seconds."
         ),
     )
-    controller: Literal["game", "lloyd", "mpc"] = Field(
+    controller: str = Field(
         "game",
         description=(
-            "'game': every robot solves its local graphical game; 'lloyd': Lloyd/Voronoi "
-            "coverage baseline (centralised positions, no game); 'mpc': the game's candidate "
+            "'game': every robot solves its local graphical game; 'mpc': the game's candidate "
             "decisions played mpc_horizon stages ahead on the run's own models, the best "
-            "executed (a centralised reference, docs/mpc.md)."
+            "executed (a centralised reference, docs/mpc.md); or a baseline the mission "
+            "offers (centralised states, no game), e.g. the coverage mission's 'lloyd' "
+            "(Lloyd/Voronoi coverage)."
         ),
     )
     mpc_horizon: int = Field(
@@ -636,6 +638,21 @@ def _check_ns3_comms(comms: CommsConfig, network: NetworkConfig) -> None:
         )
 
 
+def _check_controller(controller: str, scenario: str) -> None:
+    """``sim.controller`` is one of the simulation's controllers or a baseline that mission
+    ``scenario`` declares (:attr:`~swarmgames.missions.registry.MissionEntry.baselines`)."""
+    from swarmgames.missions.registry import get_mission
+
+    baselines = get_mission(scenario).baselines
+    if controller in CONTROLLERS or controller in baselines:
+        return
+    offered = ", ".join(map(repr, baselines)) or "none"
+    raise ValueError(
+        f"sim.controller must be {', '.join(map(repr, CONTROLLERS))} or a baseline of mission "
+        f"{scenario!r} (it offers: {offered}) (got {controller!r})"
+    )
+
+
 class ScenarioConfig(_Section):
     """A complete scenario: everything a run needs, and nothing it does not.
 
@@ -749,6 +766,7 @@ class ScenarioConfig(_Section):
         if self.comms.model == "ns3":
             _check_ns3_comms(self.comms, self.network)
         _check_comms_fields_act(self.comms)
+        _check_controller(sim.controller, self.scenario)
         if sim.controller == "mpc" and sim.mpc_horizon > 1 and self.network.backend == "ns3":
             raise ValueError(
                 "sim.controller = 'mpc' predicts the network by snapshot and restore, which "

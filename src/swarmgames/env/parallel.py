@@ -202,7 +202,7 @@ class SwarmParallelEnv(ParallelEnv):
         loop.start(states)
         self._loop, self._n_stages = loop, n_stages
         self._expert_stage, self._expert_actions = -1, None
-        self._expert = loop.controller  # the run's controller: the game's (or Lloyd's)
+        self._expert = loop.controller  # the run's controller: the game's (or a baseline)
         self.agents = list(self.possible_agents)
         self._alive = np.ones(self.n_robots, dtype=bool)
         view = loop.observe()

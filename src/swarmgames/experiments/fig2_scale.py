@@ -32,7 +32,6 @@ import pandas as pd
 from swarmgames.config import ScenarioConfig, resolve_scenario
 from swarmgames.config.io import parse_config, to_data
 from swarmgames.errors import ConfigError
-from swarmgames.missions.coverage.roi import constant_density
 
 __all__ = [
     "DEFAULT_SIZES",
@@ -95,7 +94,7 @@ def scenario_for(n: int, base: ScenarioConfig) -> ScenarioConfig:
     confidence = base.mission.confidence
     k2 = -2.0 * math.log1p(-confidence)
     area = math.pi * k2 * cov[0][0] / base.swarm.n_robots  # the base's ROI area per UAV
-    var, _ = constant_density(n, area, confidence)
+    var = n * area / (math.pi * k2)
     data = to_data(base)
     data["swarm"]["n_robots"] = n
     data["coverage"]["roi_cov_m2"] = [[var, 0.0], [0.0, var]]

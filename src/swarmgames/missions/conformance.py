@@ -19,13 +19,15 @@ What is checked
   none taken by the loop's own columns;
 * the optional hooks, where present: ``robot_metrics`` (finite ``(N,)`` arrays), ``summary``
   (JSON-serialisable values), ``draw`` (runs on a matplotlib Axes), ``extent`` (a box with
-  ``xmin < xmax`` and ``ymin < ymax``) and ``density`` (points, non-negative weights, mean).
+  ``xmin < xmax`` and ``ymin < ymax``) and ``baselines`` (named callables that return one
+  valid action index per robot and leave the states they are given unchanged).
 """
 
 from __future__ import annotations
 
 import json
 import numbers
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -34,7 +36,7 @@ from swarmgames.game.actions import action_mask_of
 from swarmgames.game.checks import check_action_model, check_potentials
 from swarmgames.game.local import local_games
 from swarmgames.missions.protocol import RESERVED_COLUMNS
-from swarmgames.names import VIRTUAL_MEANS
+from swarmgames.names import CONTROLLERS, VIRTUAL_MEANS
 from swarmgames.topology import TopologySnapshot
 
 __all__ = ["MissionCheckError", "check_mission"]
@@ -219,14 +221,50 @@ def _optional_hooks(mission: Any, states: np.ndarray, keys: list[str]) -> list[s
                 found.append(f"extent() must be (xmin, xmax, ymin, ymax), finite (got {box})")
         except Exception as exc:
             found.append(f"extent() raised {type(exc).__name__}: {exc}")
-    if hasattr(mission, "density"):
-        d = mission.density
+    if hasattr(mission, "baselines"):
+        found += _baseline_problems(mission, states)
+    return found
+
+
+def _baseline_problems(mission: Any, states: np.ndarray) -> list[str]:
+    """The ``baselines`` hook: a mapping of identifiers (not the simulation's own controller
+    names) to callables that return one valid action index per robot, ``(N,)`` integers, at
+    ``states`` without changing them."""
+    offered = mission.baselines
+    if not isinstance(offered, Mapping):
+        return [f"baselines must be a mapping of name -> callable (got {type(offered).__name__})"]
+    found: list[str] = []
+    n = states.shape[0]
+    valid = action_mask_of(mission.action_model, states)
+    for name, baseline in offered.items():
+        where = f"baselines[{name!r}]"
+        if not (isinstance(name, str) and name.isidentifier()) or name in CONTROLLERS:
+            found.append(
+                f"baseline names must be Python identifiers, none of them "
+                f"{' or '.join(map(repr, CONTROLLERS))} (got {name!r})"
+            )
+            continue
+        if not callable(baseline):
+            found.append(f"{where} must be callable (got {type(baseline).__name__})")
+            continue
+        given = states.copy()
         try:
-            pts, w, mean = np.asarray(d.points), np.asarray(d.weights), np.asarray(d.mean)
-            if pts.ndim != 2 or pts.shape[1] != 2 or w.shape != (pts.shape[0],):
-                found.append("density must have points (G, 2) and weights (G,)")
-            elif np.any(w < 0) or not np.all(np.isfinite(w)) or mean.shape != (2,):
-                found.append("density weights must be finite and >= 0, its mean of shape (2,)")
-        except AttributeError as exc:
-            found.append(f"density must have points, weights and mean: {exc}")
+            actions = np.asarray(baseline(given))
+        except Exception as exc:
+            found.append(f"{where}(states) raised {type(exc).__name__}: {exc}")
+            continue
+        if not np.array_equal(given, states):
+            found.append(f"{where}(states) changed the states it was given")
+        if actions.shape != (n,) or not np.issubdtype(actions.dtype, np.integer):
+            found.append(
+                f"{where}(states) must return an integer array of shape ({n},) "
+                f"(got {actions.dtype} {actions.shape})"
+            )
+        elif np.any(actions < 0) or np.any(actions >= valid.shape[1]):
+            found.append(
+                f"{where}(states) must return action indices in [0, {valid.shape[1]}) "
+                f"(got {actions.tolist()})"
+            )
+        elif not valid[np.arange(n), actions].all():
+            found.append(f"{where}(states) returned actions the action model does not allow")
     return found

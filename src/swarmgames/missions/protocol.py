@@ -20,15 +20,22 @@ checks them too):
 * ``draw(ax)``: draw the mission's background (a region, a goal) on a matplotlib Axes, under
   the robots of ``paths.png`` and of every animation frame;
 * ``extent() -> (xmin, xmax, ymin, ymax)``: the area plots keep in view, metres;
-* ``density``: an object with ``points (G, 2)``, ``weights (G,)`` and ``mean (2,)``, a density
-  over the plane for the Lloyd/Voronoi baseline controller (``sim.controller = "lloyd"``).
+* ``baselines``: the mission's own reference controllers, a mapping of name to a
+  :data:`Baseline`, a callable that returns every robot's action index ``(N,)`` from the
+  robots' true states ``(N, D)`` (e.g. the coverage mission's ``"lloyd"``, Lloyd/Voronoi
+  coverage). ``sim.controller = name`` runs one in place of the game; the simulation measures
+  its actions as it measures the game's (:class:`~swarmgames.sim.controllers.
+  BaselineController`).
 
 A mission registered by name (:mod:`swarmgames.missions.registry`) also brings its own
-configuration section, the ``[name]`` table of a scenario file.
+configuration section, the ``[name]`` table of a scenario file, and declares the names of its
+baselines (:attr:`~swarmgames.missions.registry.MissionEntry.baselines`), so that a
+configuration is checked without building the mission.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -44,6 +51,7 @@ __all__ = [
     "RESERVED_COLUMNS",
     "SWARM_HEAD",
     "TRAJECTORY_COLUMNS",
+    "Baseline",
     "Mission",
 ]
 
@@ -101,7 +109,12 @@ RESERVED_COLUMNS = frozenset(
 )
 
 #: Optional methods and attributes of a mission (see the module docstring).
-OPTIONAL_HOOKS = ("robot_metrics", "summary", "draw", "extent", "density")
+OPTIONAL_HOOKS = ("robot_metrics", "summary", "draw", "extent", "baselines")
+
+#: A mission's baseline controller (the ``baselines`` hook): the robots' true states
+#: ``(N, D)`` to every robot's action index ``(N,)``, an integer array of valid actions of the
+#: mission's ``action_model``. It sees every robot's state: a centralised reference.
+Baseline = Callable[[np.ndarray], np.ndarray]
 
 
 @runtime_checkable

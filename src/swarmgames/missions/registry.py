@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from swarmgames.errors import ConfigError
+from swarmgames.names import CONTROLLERS
 from swarmgames.section import Section
 
 __all__ = [
@@ -65,12 +66,18 @@ class MissionEntry:
         ``config.mission``; the swarm, game and sim sections are there too).
     description : str
         One line for ``swarmgames config list``.
+    baselines : tuple of str, default ()
+        Names of the baseline controllers the built mission offers (its ``baselines`` hook,
+        :mod:`swarmgames.missions.protocol`): the values of ``sim.controller`` besides
+        ``"game"`` and ``"mpc"`` that a configuration of this mission accepts. Python
+        identifiers, none of them ``"game"`` or ``"mpc"``.
     """
 
     name: str
     config: type[Section]
     build: Callable[[Any], Any]
     description: str = ""
+    baselines: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not (isinstance(self.name, str) and self.name.isidentifier()):
@@ -82,6 +89,16 @@ class MissionEntry:
             )
         if not callable(self.build):
             raise TypeError(f"mission {self.name!r}: build must be callable (got {self.build!r})")
+        names = self.baselines
+        if not (
+            isinstance(names, tuple)
+            and all(isinstance(b, str) and b.isidentifier() for b in names)
+            and not set(names) & set(CONTROLLERS)
+        ):
+            raise ValueError(
+                f"mission {self.name!r}: baselines must be a tuple of Python identifiers, none "
+                f"of them {' or '.join(map(repr, CONTROLLERS))} (got {names!r})"
+            )
 
 
 _registry: dict[str, MissionEntry] = {}

@@ -3,8 +3,8 @@
 from importlib import import_module
 
 __all__ = [
+    "BaselineController",
     "GameController",
-    "LloydController",
     "NotResumableError",
     "RunResult",
     "StageLog",
@@ -22,8 +22,8 @@ __all__ = [
 #: (``swarmgames.sim.signals``, as a sweep's own process does) loads no mission, game or
 #: compiled kernel.
 _HOMES = {
+    "BaselineController": "controllers",
     "GameController": "controllers",
-    "LloydController": "controllers",
     "make_controller": "controllers",
     "solver_from_config": "controllers",
     "StageLog": "loop",

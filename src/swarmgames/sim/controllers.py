@@ -1,4 +1,4 @@
-"""Controllers of the stage loop: the graphical game (the paper's method) and the Lloyd baseline.
+"""Controllers of the stage loop: the graphical game (the paper's method) and mission baselines.
 
 Both are thin: they turn an observed stage and the configuration into a
 :class:`~swarmgames.game.problem.StageProblem` (:meth:`~Controller.problem`), solve it with
@@ -7,7 +7,7 @@ actions on it (:func:`~swarmgames.game.stage.measure_stage`), and return its
 :class:`~swarmgames.game.stage.StageSolution`, so every controller is measured the same way:
 
 * ``payoff`` — :math:`M_i` (eq. 1) of robot i's local game at the profile robot i settles on;
-  for the Lloyd and centralised controllers, which have no local games of their own, robot
+  for the baseline and centralised controllers, which have no local games of their own, robot
   i's true local game (actual neighbours' states, no virtual means) at the actual actions;
 * ``local_regret`` — the largest gain any variable of that local game gets by deviating alone
   from that profile (0 = a pure Nash equilibrium of the local game);
@@ -34,12 +34,12 @@ from swarmgames.errors import ConfigError
 from swarmgames.game import Solver, make_solver
 from swarmgames.game.problem import StageProblem
 from swarmgames.game.stage import StageSolution, measure_expost, measure_stage, solve
-from swarmgames.missions.coverage.lloyd import lloyd_actions
+from swarmgames.names import CONTROLLERS
 
 __all__ = [
+    "BaselineController",
     "Controller",
     "GameController",
-    "LloydController",
     "make_controller",
     "solver_from_config",
 ]
@@ -181,31 +181,42 @@ class GameController(_Controller):
             ) from None
 
 
-class LloydController(_Controller):
-    """Lloyd/Voronoi baseline (:mod:`swarmgames.missions.coverage.lloyd`) over the mission's
-    ``density``, measured on the true local games at its actions.
+class BaselineController(_Controller):
+    """A baseline the mission offers (its ``baselines`` hook, :mod:`swarmgames.missions.
+    protocol`), measured on the true local games at its actions.
+
+    Parameters
+    ----------
+    config : ScenarioConfig
+    mission : Mission
+    name : str
+        The baseline's name among the mission's ``baselines`` (``sim.controller``).
 
     Raises
     ------
     ConfigError
-        The mission has no ``density`` (Lloyd's algorithm covers a density).
+        The mission offers no baseline ``name``; the message lists those it offers.
     """
 
-    def __init__(self, config, mission) -> None:
+    def __init__(self, config, mission, name: str) -> None:
         super().__init__(config, mission)
-        if getattr(mission, "density", None) is None:
+        offered = getattr(mission, "baselines", {})  # an optional hook, read once
+        if name not in offered:
+            have = ", ".join(map(repr, offered)) or "none"
             raise ConfigError(
-                f"sim.controller = 'lloyd' needs a mission with a density to cover; mission "
-                f"{getattr(mission, 'name', config.scenario)!r} has none"
+                f"sim.controller must be {', '.join(map(repr, CONTROLLERS))} or a baseline "
+                f"of mission {mission.name!r} (it offers: {have}) (got {name!r})"
             )
+        self.name = name
+        self.baseline = offered[name]
 
     def decide(self, problem: StageProblem, rng) -> StageSolution:
-        """Each robot's move toward its Voronoi centroid (from every true position: the
-        baseline is centralised, the messages are unused), and its measures."""
-        m, states = self.mission, problem.states
+        """Every robot's action from the baseline (from every true state: a baseline is
+        centralised, the messages are unused), and its measures."""
+        states = problem.states
         n = states.shape[0]
         t0 = time.perf_counter()
-        actions = lloyd_actions(states, m.density, m.action_model)
+        actions = np.asarray(self.baseline(states), dtype=np.int64)
         solve_s = time.perf_counter() - t0
         stage = self.measure(problem, actions)
         return replace(
@@ -217,12 +228,18 @@ class LloydController(_Controller):
 
 
 def make_controller(config, mission):
-    """The controller ``sim.controller`` names: the game controller, Lloyd's baseline or the
-    receding-horizon controller (:mod:`swarmgames.sim.mpc`)."""
-    if config.sim.controller == "lloyd":
-        return LloydController(config, mission)
+    """The controller ``sim.controller`` names: the game controller, the receding-horizon
+    controller (:mod:`swarmgames.sim.mpc`) or one of the mission's baselines.
+
+    Raises
+    ------
+    ConfigError
+        ``sim.controller`` names a baseline the mission does not offer.
+    """
+    if config.sim.controller == "game":
+        return GameController(config, mission)
     if config.sim.controller == "mpc":
         from swarmgames.sim.mpc import MpcController
 
         return MpcController(config, mission)
-    return GameController(config, mission)
+    return BaselineController(config, mission, config.sim.controller)

@@ -16,6 +16,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -23,10 +24,12 @@ import numpy as np
 from swarmgames.errors import ConfigError
 from swarmgames.game.inertia import Inertia
 from swarmgames.missions.coverage.config import CoverageConfig
+from swarmgames.missions.coverage.lloyd import lloyd_actions
 from swarmgames.missions.coverage.potentials import CoveragePotentials
 from swarmgames.missions.coverage.roi import GaussianROI
 from swarmgames.missions.coverage.signal import SignalModel
 from swarmgames.missions.motion import TakeOff, arena_for, uav_actions
+from swarmgames.missions.protocol import Baseline
 from swarmgames.missions.registry import MissionEntry
 
 __all__ = ["ENTRY", "CoverageMission", "build"]
@@ -58,9 +61,10 @@ class CoverageMission:
         return int(self.action_model.state_dim)
 
     @property
-    def density(self) -> GaussianROI:
-        """The ROI, as the Lloyd baseline's density."""
-        return self.roi
+    def baselines(self) -> dict[str, Baseline]:
+        """``"lloyd"``: Lloyd/Voronoi coverage of the ROI with the mission's actions
+        (:func:`~swarmgames.missions.coverage.lloyd.lloyd_actions`)."""
+        return {"lloyd": partial(lloyd_actions, roi=self.roi, action_model=self.action_model)}
 
     def initial_states(self, n_robots: int, rng: np.random.Generator) -> np.ndarray:
         """Uniform over the take-off disc at the flight altitude, at rest."""
@@ -136,4 +140,5 @@ ENTRY = MissionEntry(
     config=CoverageConfig,
     build=build,
     description="communication-aware coverage of a Gaussian region of interest (the paper's)",
+    baselines=("lloyd",),
 )
