@@ -8,7 +8,7 @@ freed, and returns the top of its heap to the system past a trim threshold. Ever
 is then faulted in again, page by page, zeroed by the kernel. Where a page fault is
 expensive, as in a virtual machine, this dominates. On the 2-core development VM a fresh page
 costs about 10 µs (0.55 s to first touch 216 MB, 2 ms per MB): in a dense swarm the OLSR
-advance went from 2.1 s to 0.4 s with the settings below. A sparse swarm's blocks (16 MB at
+advance takes 0.4 s with the settings below and 2.1 s without. A sparse swarm's blocks (16 MB at
 most) are refaulted only until glibc's adaptive threshold has risen past them, so a whole run
 or the benchmark suite runs the same either way (docs/bench.md, "Freed memory kept for
 reuse"). The results are the same bit for bit: only where the memory comes from changes.

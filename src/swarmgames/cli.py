@@ -1083,7 +1083,7 @@ def main(argv: list[str] | None = None, *, quick_exit: bool = False) -> None:
     With ``quick_exit`` (:func:`script`, the ``swarmgames`` command and ``python -m
     swarmgames``), once the command has ended the process ends as Python would (its exit
     handlers run, its output is flushed, the same exit status) but without tearing down the
-    interpreter's modules, which took 0.5 s after a run (Numba's and LLVM's state,
+    interpreter's modules, which takes about 0.5 s after a run (Numba's and LLVM's state,
     matplotlib, pandas). Without it, the command's ``SystemExit`` propagates to the caller."""
     reuse_freed_memory()
     warnings.showwarning = _one_line_warning

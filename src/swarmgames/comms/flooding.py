@@ -18,7 +18,7 @@ the frontier into its transmissions along the CSR rows of the adjacency, keeps t
 could bring a message to a robot that does not have it yet, draws them (``link_success``)
 and merges the first receptions into the sorted set of (message, robot) pairs reached.
 The expansion is one compiled pass (:func:`_fresh`): as numpy steps, a hop of a 100-UAV
-swarm was about twenty calls, each costing more than its arithmetic.
+swarm would be about twenty calls, each costing more than its arithmetic.
 """
 
 from __future__ import annotations

@@ -6,8 +6,8 @@ Once per control period, at the stage time t, every robot composes its state mes
 
 ``ideal``
     Every member of N_i(h) — robot i's own routing table — receives the exact message
-    instantly and for free: the local games of the paper, and the simulation before this
-    layer existed (it reproduces those runs bit for bit).
+    instantly and for free: the local games of the paper (the golden runs of
+    ``tests/sim/test_golden.py`` use it).
 ``routed``
     The message is flooded hop by hop for at most h hops over the links that exist now, both
     physically (the radio model at the current positions) and in the forwarder's routing

@@ -340,7 +340,7 @@ class GameConfig(_Section):
     @field_validator("virtual_mean", mode="before")
     @classmethod
     def _virtual_mean_switch(cls, value: Any) -> Any:
-        # The boolean switch of earlier versions names two of the variants; anything else
+        # A boolean names two of the variants (true = 'eq3', false = 'off'); anything else
         # that is not one of their names is refused (1 is not true here).
         if isinstance(value, bool):
             return "eq3" if value else "off"

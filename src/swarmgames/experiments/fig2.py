@@ -113,7 +113,8 @@ class Fig2Result:
 #: Line style of each variant in Figure 2a.
 _LINES = {"eq3": "-", "off": "--", "outside": "-.", "exact": (0, (1, 1))}
 
-#: Run names of the two variants of the paper's figure, as before the variants existed.
+#: Run names of the paper's two variants in Figure 2 (``vm``: eq. 3's virtual means, ``novm``:
+#: none).
 _NAMES = {"eq3": "vm", "off": "novm"}
 
 

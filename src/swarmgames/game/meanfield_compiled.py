@@ -28,7 +28,8 @@ where float64 tables converge in 28–54. Games of at least :data:`WIDE_SUM_MIN`
 therefore accumulate their pair fields in float64 (the products of float32 values are exact
 there) and take the logits and the softmax in float64, keeping Q in float32: they converge
 as in float64. The choice depends on the game alone, so results stay independent of the
-batch and of the thread count; smaller games and float64 tables are unchanged.
+batch and of the thread count; smaller games and float64 tables sum their pair fields in
+their own dtype.
 
 Shared tables
 -------------

@@ -194,7 +194,7 @@ def size_groups(
     whose games all have labels, ``d`` distinct ones, holds at most ``min(d, count)`` tables
     and the rows of every game at a profile: it is split into batches of the most games
     ``c`` with ``min(d, c) K_max² A² + c K_max² A <= max_elems`` (a dense swarm's batches
-    then hold 21 games of K = 300 instead of 3).
+    then hold 21 games of K = 300, where a table per game would allow 3).
 
     Returns
     -------

@@ -50,7 +50,7 @@ __all__ = [
 
 def virtual_mode(value) -> str:
     """The variant ``value`` names: one of :data:`VIRTUAL_MEANS`, with ``True`` for
-    ``"eq3"`` and ``False`` for ``"off"`` (the switch of earlier versions).
+    ``"eq3"`` and ``False`` for ``"off"`` (a boolean is shorthand for these two).
 
     Examples
     --------

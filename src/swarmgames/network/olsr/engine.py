@@ -43,7 +43,7 @@ to at that moment, processes only the first copy, and retransmits (after a new j
 sender is one of its MPR selectors at that moment (ns-3 ``ProcessTc`` and ``ForwardDefault``
 check both on arrival). The HELLOs of a round are on the air while the TCs built at the same
 instant are flooded; the MPR selectors they add relay those TCs. (Taking the link and selector
-state of the instant a TC was built instead cut nodes off for whole rounds in fast swarms.)
+state of the instant a TC is built would cut nodes off for whole rounds in fast swarms.)
 
 Approximations, documented in ``docs/network.md``: the copies due within one ``run_until`` step
 are processed wave by wave (the earliest copy of a wave counts) with the link and selector state
