@@ -400,7 +400,7 @@ def test_missions_check_reports_a_broken_plugin(runner):
         def initial_states(self, n, rng):
             return np.zeros((n, 2))
 
-        def swarm_metrics(self, states, previous):
+        def swarm_metrics(self, states, previous, t):
             return {}
 
     register_mission(MissionEntry("broken", Section, lambda cfg: Broken()), replace=True)

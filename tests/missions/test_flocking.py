@@ -187,14 +187,14 @@ def test_swarm_metrics_by_hand():
             [1000.0, 0.0, 30.0, 0.0, 0.0],  # beyond radio range: a second component
         ]
     )
-    got = mission.swarm_metrics(s, None)
+    got = mission.swarm_metrics(s, None, 0.0)
     centroid = s[:, :3].mean(axis=0)
     assert got["polarisation"] == pytest.approx(1.0)
     assert got["cohesion_radius_m"] == pytest.approx(np.linalg.norm(s[3, :3] - centroid))
     assert got["near_collisions"] == 1.0
     assert got["link_components"] == 2.0
     assert got["mean_speed_m_s"] == pytest.approx(0.5)
-    np.testing.assert_allclose(mission.robot_metrics(s)["speed_m_s"], [1.0, 1.0, 0.0, 0.0])
+    np.testing.assert_allclose(mission.robot_metrics(s, 0.0)["speed_m_s"], [1.0, 1.0, 0.0, 0.0])
 
 
 def test_summary_without_polarisation():

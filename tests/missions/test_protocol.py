@@ -52,10 +52,10 @@ class GoalMission:
     def initial_states(self, n_robots, rng):
         return np.c_[rng.uniform(-50, 50, (n_robots, 2)), np.full(n_robots, 30.0)]
 
-    def swarm_metrics(self, states, previous):
+    def swarm_metrics(self, states, previous, t):
         return {"goal_distance_m": float(np.linalg.norm(states[:, :2] - GOAL, axis=1).mean())}
 
-    def robot_metrics(self, states):
+    def robot_metrics(self, states, t):
         return {"goal_distance_m": np.linalg.norm(states[:, :2] - GOAL, axis=1)}
 
     def summary(self, times, swarm):
@@ -107,12 +107,12 @@ class _WrongShape(GoalMission):
 
 
 class _BadMetrics(GoalMission):
-    def swarm_metrics(self, states, previous):
+    def swarm_metrics(self, states, previous, t):
         return {"mean_payoff": 1.0, "bad": float("nan"), "flag": True}
 
 
 class _BadHooks(GoalMission):
-    def robot_metrics(self, states):
+    def robot_metrics(self, states, t):
         return {"d": np.zeros(2)}
 
     def summary(self, times, swarm):
@@ -430,7 +430,7 @@ class Hover:
     def initial_states(self, n, rng):
         return self.takeoff.states(n, rng)
 
-    def swarm_metrics(self, states, previous):
+    def swarm_metrics(self, states, previous, t):
         return {"home_distance_m": float(np.linalg.norm(states[:, :2], axis=1).mean())}
 
 
@@ -478,3 +478,76 @@ def test_an_installed_plugin_is_found_by_every_command(tmp_path):
     assert "home_distance_m" in swarm[0]
     first, last = (float(r.split(",")[2]) for r in (swarm[1], swarm[-1]))
     assert last < first
+
+
+# --------------------------------------------------------------------------- time
+
+
+class _OldMetrics(GoalMission):
+    """Metrics hooks written without the stage time."""
+
+    def swarm_metrics(self, states, previous):
+        return {"goal_distance_m": 0.0}
+
+    def robot_metrics(self, states):
+        return {"goal_distance_m": np.zeros(len(states))}
+
+
+def test_check_mission_names_a_metrics_hook_without_the_stage_time():
+    with pytest.raises(MissionCheckError) as info:
+        check_mission(_OldMetrics())
+    problems = info.value.problems
+    assert len(problems) == 2, problems  # one line per hook, and no TypeError of the calls
+    assert problems[0].startswith(
+        "swarm_metrics must take the stage time: swarm_metrics(states, previous, t)"
+    )
+    assert "(got swarm_metrics(states, previous))" in problems[0]
+    assert problems[1].startswith(
+        "robot_metrics must take the stage time: robot_metrics(states, t)"
+    )
+
+
+class _Clock:
+    """A unary that reads the stage time: finite up to ``limit_s``, NaN after."""
+
+    def __init__(self, limit_s):
+        self.limit_s = limit_s
+
+    def unary(self, batch):
+        value = 0.0 if batch.t <= self.limit_s else np.nan
+        return np.full(batch.action_mask.shape, value - batch.t)
+
+    def pairwise(self, batch):
+        return None
+
+
+class _TimedMetrics(GoalMission):
+    """Records the stage times its metrics hooks are given."""
+
+    def __init__(self, potentials):
+        object.__setattr__(self, "potentials", potentials)
+        object.__setattr__(self, "seen", [])
+
+    def swarm_metrics(self, states, previous, t):
+        self.seen.append(t)
+        return {"goal_distance_m": 0.0}
+
+    def robot_metrics(self, states, t):
+        self.seen.append(t)
+        return {"goal_distance_m": np.zeros(len(states))}
+
+
+def test_check_mission_gives_the_metrics_two_stage_times_and_passes_a_timed_mission():
+    mission = _TimedMetrics(_Clock(limit_s=1e9))
+    check_mission(mission)
+    assert len(set(mission.seen)) == 2  # two stages, two times
+
+
+def test_check_mission_evaluates_the_potentials_at_a_later_stage_time():
+    # Finite at t = 0 (the other checks), not finite at the later times.
+    with pytest.raises(MissionCheckError) as info:
+        check_mission(_TimedMetrics(_Clock(limit_s=1.0)))
+    (first, second) = info.value.problems
+    assert first.startswith("potentials at stage time t = 10 s:"), first
+    assert second.startswith("potentials at stage time t = 250 s:"), second
+    assert "unary potential is not finite" in first

@@ -149,16 +149,16 @@ def test_metrics_count_lost_links_and_components():
     mission = get_mission("rendezvous").build(_config("rendezvous.goal_m=[0.0, 0.0]"))
     before = np.array([[0.0, 0.0, 30.0], [300.0, 0.0, 30.0], [600.0, 0.0, 30.0]])
     after = np.array([[0.0, 0.0, 30.0], [300.0, 0.0, 30.0], [700.0, 0.0, 30.0]])
-    first = mission.swarm_metrics(before, None)
+    first = mission.swarm_metrics(before, None, 0.0)
     assert first == {
         "goal_distance_m": pytest.approx(300.0),
         "max_goal_distance_m": 600.0,
         "links_lost": 0.0,
         "link_components": 1.0,
     }
-    second = mission.swarm_metrics(after, before)
+    second = mission.swarm_metrics(after, before, 1.0)
     assert second["links_lost"] == 1.0 and second["link_components"] == 2.0
-    np.testing.assert_allclose(mission.robot_metrics(after)["goal_distance_m"], [0, 300, 700])
+    np.testing.assert_allclose(mission.robot_metrics(after, 1.0)["goal_distance_m"], [0, 300, 700])
     out = mission.summary(
         np.array([10.0, 11.0, 12.0]),
         {

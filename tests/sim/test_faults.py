@@ -86,7 +86,7 @@ def test_the_mission_counts_what_is_alive_where_it_is():
     last = tr[tr["t"] == 13.0].sort_values("robot")[["x", "y", "z"]].to_numpy()
     alive = np.arange(6) >= 2
     assert res.to_frame()["coverage"].iloc[-1] == pytest.approx(
-        mission.swarm_metrics(last[alive], None)["coverage"]
+        mission.swarm_metrics(last[alive], None, 13.0)["coverage"]
     )
 
 

@@ -81,11 +81,11 @@ class StopAfter:
     def __getattr__(self, name):
         return getattr(self._m, name)
 
-    def swarm_metrics(self, states, previous):
+    def swarm_metrics(self, states, previous, t):
         self._calls += 1
         if self._calls == self._k + 1:
             raise self._exc("stopped in a test")
-        return self._m.swarm_metrics(states, previous)
+        return self._m.swarm_metrics(states, previous, t)
 
 
 @pytest.fixture(scope="module")

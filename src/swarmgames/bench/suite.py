@@ -559,17 +559,11 @@ def _batched_vs_single(sb: StageBench, n_single: int, seed: int, engine: str) ->
     """Solve the stage's local games in their batches and ``n_single`` of them one by one,
     with the mean-field ``engine`` (batched: best of 3; one by one: mean, after one untimed
     solve of each kind, so that compilation is not timed)."""
-    ctrl, m = sb.controller, sb.mission
-    messages, groups = plan_stage(sb.problem())
+    ctrl = sb.controller
+    problem = sb.problem()
+    messages, groups = plan_stage(problem)
     pays = [
-        evaluate_games(
-            ctrl.solver,
-            messages,
-            owners,
-            m.action_model,
-            m.potentials,
-            virtual_mean=ctrl.virtual_mean,
-        )[1]
+        evaluate_games(problem, messages, owners, virtual_mean=ctrl.virtual_mean)[1]
         for owners in groups
     ]
     solver = replace(ctrl.solver, engine=engine)
@@ -615,19 +609,13 @@ def _decide_batched_vs_single(sb: StageBench, n_single: int, seed: int) -> dict:
     (what the robots received) are computed once, outside both timings."""
     from swarmgames.game.meanfield import resolve_engine
 
-    ctrl, m = sb.controller, sb.mission
-    messages, groups = plan_stage(sb.problem())
+    ctrl = sb.controller
+    problem = sb.problem()
+    messages, groups = plan_stage(problem)
 
     def decide(owners) -> None:
         for group in owners:
-            _, pay, _, _ = evaluate_games(
-                ctrl.solver,
-                messages,
-                group,
-                m.action_model,
-                m.potentials,
-                virtual_mean=ctrl.virtual_mean,
-            )
+            _, pay, _, _ = evaluate_games(problem, messages, group, virtual_mean=ctrl.virtual_mean)
             ctrl.solver.solve_payoffs(pay, sb.rng)
 
     rng = np.random.default_rng(seed)

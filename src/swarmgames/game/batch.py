@@ -14,6 +14,7 @@ References
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,11 +54,16 @@ class LocalGameBatch:
         Variables that are context, not players (``virtual_mean = "exact"``: the robots of
         the members' neighbourhoods outside N_i, at their reported states, with a single
         action); ``None`` (default): none.
+    t : float, default 0.0
+        The stage time in seconds: the simulation's clock when the games are played (the
+        warm-up plus the stage number times the control period). Potentials that depend on
+        time (a moving target) read it here, never from the states; 0.0 for games built
+        outside a run.
 
     Notes
     -----
     All arrays are copied and made read-only. Use :meth:`select` to take a subset of games
-    and :meth:`trim` to drop padding columns no game uses.
+    and :meth:`trim` to drop padding columns no game uses; both keep ``t``.
     """
 
     owner: np.ndarray
@@ -69,8 +75,13 @@ class LocalGameBatch:
     action_mask: np.ndarray
     pair_mask: np.ndarray | None = field(default=None)
     is_context: np.ndarray | None = field(default=None)
+    t: float = 0.0
 
     def __post_init__(self) -> None:
+        t = self.t
+        if isinstance(t, bool) or not isinstance(t, numbers.Real) or not np.isfinite(t):
+            raise ValueError(f"t must be a finite number of seconds (got {t!r})")
+        object.__setattr__(self, "t", float(t))
         members = np.asarray(self.members)
         if members.ndim != 2:
             raise ValueError(f"members must have shape (B, K) (got {members.shape})")
@@ -162,6 +173,7 @@ class LocalGameBatch:
             action_mask=self.action_mask[idx],
             pair_mask=None if self.pair_mask is None else self.pair_mask[idx],
             is_context=None if self.is_context is None else self.is_context[idx],
+            t=self.t,
         )
 
     def trim(self) -> LocalGameBatch:
@@ -180,14 +192,15 @@ class LocalGameBatch:
             action_mask=self.action_mask[:, :k, :a],
             pair_mask=None if self.pair_mask is None else self.pair_mask[:, :k, :k],
             is_context=None if self.is_context is None else self.is_context[:, :k],
+            t=self.t,
         )
 
     @classmethod
     def concat(cls, batches) -> LocalGameBatch:
         """One batch holding the games of ``batches`` in order, padded to the widest K and A.
 
-        All batches must have the same state size D. ``pair_mask`` is kept only if every batch
-        has one (None otherwise).
+        All batches must have the same state size D and the same stage time ``t``.
+        ``pair_mask`` is kept only if every batch has one (None otherwise).
         """
         batches = list(batches)
         if not batches:
@@ -195,6 +208,9 @@ class LocalGameBatch:
         d = {b.state_dim for b in batches}
         if len(d) != 1:
             raise ValueError(f"batches must share the state size D (got {sorted(d)})")
+        times = {b.t for b in batches}
+        if len(times) != 1:
+            raise ValueError(f"batches must share the stage time t (got {sorted(times)})")
         k = max(b.n_vars for b in batches)
         a = max(b.n_actions for b in batches)
 
@@ -224,4 +240,5 @@ class LocalGameBatch:
             is_context=np.concatenate([pad(context(b), {1: k}, False) for b in batches])
             if any_context
             else None,
+            t=batches[0].t,
         )

@@ -246,6 +246,11 @@ def owner_deviations(batch: LocalGameBatch, joint_actions) -> LocalGameBatch:
         True local games, variable 0 the owner.
     joint_actions : array_like of int, shape (N,)
         Every robot's realised action (valid in the games where it is a variable).
+
+    Returns
+    -------
+    LocalGameBatch
+        The same games at the same stage time ``t``, with the held action masks.
     """
     joint = np.asarray(joint_actions, dtype=np.int64)
     members = np.asarray(batch.members)

@@ -44,7 +44,11 @@ __all__ = ["expost_games", "expost_regret"]
 
 
 def expost_games(
-    views: LocalViews, next_states: np.ndarray, action_model: ActionModel
+    views: LocalViews,
+    next_states: np.ndarray,
+    action_model: ActionModel,
+    *,
+    t: float = 0.0,
 ) -> LocalGameBatch:
     """The ex-post games of the owners of ``views``: each owner at its own state with all its
     actions, every other member at its actual next state with one action (action 0).
@@ -57,6 +61,9 @@ def expost_games(
     next_states : ndarray, shape (N, D)
         The state every robot actually reached.
     action_model : ActionModel
+    t : float, default 0.0
+        The stage time in seconds (``LocalGameBatch.t``): that of the stage whose decisions
+        are judged, so time-dependent potentials score them as the stage game did.
 
     Returns
     -------
@@ -91,6 +98,7 @@ def expost_games(
         is_virtual=np.zeros((b, k), dtype=bool),
         next_states=nxt,
         action_mask=amask,
+        t=t,
     )
 
 

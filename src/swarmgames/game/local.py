@@ -385,6 +385,8 @@ def _game_from_states(
     action_model: ActionModel,
     pair_mask=None,
     is_context=None,
+    *,
+    t: float = 0.0,
 ) -> LocalGameBatch:
     n_actions = int(action_model.n_actions)
     if n_actions < 1:
@@ -414,6 +416,7 @@ def _game_from_states(
         action_mask=action_mask,
         pair_mask=pair_mask,
         is_context=is_context,
+        t=t,
     )
 
 
@@ -443,7 +446,11 @@ def _with_context(views: LocalViews):
 
 
 def build_local_games(
-    views: LocalViews, action_model: ActionModel, *, virtual_mean: bool | str = "eq3"
+    views: LocalViews,
+    action_model: ActionModel,
+    *,
+    virtual_mean: bool | str = "eq3",
+    t: float = 0.0,
 ) -> LocalGameBatch:
     """The local games of a batch of inboxes (vectorised).
 
@@ -460,6 +467,8 @@ def build_local_games(
         False) nothing, the reported states (the paper's comparison); ``"exact"`` every
         member keeps its reported state and the context C_i = ∪_j N_j − N_i joins the game
         as variables with a single action that keeps them in place (``is_context``).
+    t : float, default 0.0
+        The stage time in seconds (``LocalGameBatch.t``), for potentials that depend on time.
 
     Returns
     -------
@@ -476,6 +485,7 @@ def build_local_games(
             np.zeros(mask.shape, dtype=bool),
             action_model,
             is_context=is_context,
+            t=t,
         )
     if mode == "off":
         is_virtual = np.zeros(np.shape(views.mask), dtype=bool)
@@ -491,17 +501,21 @@ def build_local_games(
         )
     states = np.where(is_virtual[:, :, None], means, views.states)
     return _game_from_states(
-        views.owner, views.members, views.mask, states, is_virtual, action_model
+        views.owner, views.members, views.mask, states, is_virtual, action_model, t=t
     )
 
 
 def build_local_game(
-    view: LocalView, action_model: ActionModel, *, virtual_mean: bool | str = "eq3"
+    view: LocalView,
+    action_model: ActionModel,
+    *,
+    virtual_mean: bool | str = "eq3",
+    t: float = 0.0,
 ) -> LocalGameBatch:
     """Robot ``view.owner``'s local game alone, as a batch of one game with no padding.
 
-    Same result as :func:`build_local_games` on the same inbox; written per robot with set
-    operations, it is the reference the batched builder is tested against.
+    Same result as :func:`build_local_games` on the same inbox and stage time ``t``; written
+    per robot with set operations, it is the reference the batched builder is tested against.
     """
     mode = virtual_mode(virtual_mean)
     members = np.asarray(view.members, dtype=np.int32)
@@ -522,6 +536,7 @@ def build_local_game(
             np.zeros((1, k), dtype=bool),
             action_model,
             is_context=(np.arange(k) >= members.size)[None],
+            t=t,
         )
     outside = [set(nb.tolist()) - inside for nb in view.neighbourhoods]
     outside[0] = set()  # the owner (column 0) is never virtual
@@ -544,6 +559,7 @@ def build_local_game(
         states[None],
         is_virtual[None],
         action_model,
+        t=t,
     )
 
 
@@ -555,6 +571,7 @@ def local_games(
     *,
     virtual_mean: bool | str = "eq3",
     owners=None,
+    t: float = 0.0,
 ) -> LocalGameBatch:
     """Every robot's local game of one stage: ``broadcast`` → ``gather_views`` →
     ``build_local_games``.
@@ -570,11 +587,13 @@ def local_games(
         How members reaching outside N_i stand in for it (:func:`build_local_games`).
     owners : array_like of int, optional
         Robots whose games to build (default: all, in id order).
+    t : float, default 0.0
+        The stage time in seconds (``LocalGameBatch.t``).
 
     Returns
     -------
     LocalGameBatch
-        B = len(owners) games, K = the largest |N_i|.
+        B = len(owners) games, K = the largest |N_i|, at time ``t``.
 
     Examples
     --------
@@ -592,14 +611,20 @@ def local_games(
     """
     mode = virtual_mode(virtual_mean)
     views = gather_views(broadcast(snapshot, h, states), owners, context=mode == "exact")
-    return build_local_games(views, action_model, virtual_mean=mode)
+    return build_local_games(views, action_model, virtual_mean=mode, t=t)
 
 
 def centralised_game(
-    snapshot: TopologySnapshot, h: int, states: np.ndarray, action_model: ActionModel
+    snapshot: TopologySnapshot,
+    h: int,
+    states: np.ndarray,
+    action_model: ActionModel,
+    *,
+    t: float = 0.0,
 ) -> LocalGameBatch:
     """The whole swarm as one game (centralised baseline): every robot a variable, actual
-    states, pairwise terms between j and k when k ∈ N_j(h) (``pair_mask``).
+    states, pairwise terms between j and k when k ∈ N_j(h) (``pair_mask``), at the stage
+    time ``t`` (seconds, ``LocalGameBatch.t``).
 
     The pairwise table of this game has N² A² entries: meant for small swarms (N ≲ 300).
     """
@@ -616,4 +641,5 @@ def centralised_game(
         np.zeros((1, n), dtype=bool),
         action_model,
         pair_mask=pair[None],
+        t=t,
     )

@@ -73,6 +73,8 @@ class Potentials(Protocol):
     eq. 5, does). ``pairwise(batch)`` returns ``(B, K, K, A, A)`` with
     ``[b, k, l, a, c] = φ_p(S_k, a, S_l, c)``, or ``None`` when there is no pairwise term. Values
     at padding, invalid actions and ``k == l`` are ignored (they may be anything, even NaN).
+    Potentials that depend on time (a moving target) read the stage time ``batch.t`` in
+    seconds; the states carry no clock.
 
     Optional cheaper form: a method ``pair_table(batch, dtype) -> (B, K, A, K, A)`` returning
     the symmetrised table ``φ_p(k, a, l, c) + φ_p(l, c, k, a)`` directly in the solver's

@@ -66,7 +66,7 @@ from swarmgames.game.local import (
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
 from swarmgames.game.problem import StageProblem
 from swarmgames.game.refine import refine_profiles
-from swarmgames.game.solvers import GameSolution, Solver, sample_actions
+from swarmgames.game.solvers import GameSolution, sample_actions
 from swarmgames.game.virtual import virtual_mode
 from swarmgames.rng import as_generator
 from swarmgames.topology import TopologySnapshot
@@ -320,36 +320,29 @@ class _Record:
 
 
 def evaluate_games(
-    solver: Solver,
-    inbox: Inbox,
-    owners,
-    action_model: ActionModel,
-    potentials: Potentials,
-    *,
-    virtual_mean: bool | str,
+    problem: StageProblem, inbox: Inbox, owners, *, virtual_mean: bool | str
 ) -> tuple[LocalGameBatch, GamePayoffs, float, float]:
     """The second step, for one batch: the local games of ``owners`` built from their inboxes
     (``inbox.views(owners)``, with ``context=True`` for ``virtual_mean = "exact"``:
     :class:`~swarmgames.game.local.Messages` for exact, instant delivery, or what a
-    communication model delivered) and their payoff tables under ``solver``'s weights; with
-    the build and the evaluation (payoff integration) times, seconds."""
+    communication model delivered) at the problem's time, with its action model, and their
+    payoff tables (its potentials under its solver's weights); with the build and the
+    evaluation (payoff integration) times, seconds."""
     t0 = time.perf_counter()
     mode = virtual_mode(virtual_mean)
     views = inbox.views(owners, context=True) if mode == "exact" else inbox.views(owners)
-    batch = build_local_games(views, action_model, virtual_mean=mode)
+    batch = build_local_games(views, problem.action_model, virtual_mean=mode, t=problem.t)
     t1 = time.perf_counter()
-    pay = solver.evaluate(batch, potentials)
+    pay = problem.solver.evaluate(batch, problem.potentials)
     return batch, pay, t1 - t0, time.perf_counter() - t1
 
 
-def _true_measures(rec: _Record, solver, messages, groups, action_model, potentials) -> float:
+def _true_measures(rec: _Record, problem: StageProblem, messages, groups) -> float:
     """Payoff, local and global regret of every robot's true local game (actual states, no
     virtual means) at the realised actions ``rec.actions``; returns the evaluation time."""
     integrate_s = 0.0
     for owners in groups:
-        batch, pay, _, t_int = evaluate_games(
-            solver, messages, owners, action_model, potentials, virtual_mean="off"
-        )
+        batch, pay, _, t_int = evaluate_games(problem, messages, owners, virtual_mean="off")
         members = np.asarray(pay.members)
         profile = np.where(pay.mask, rec.actions[np.maximum(members, 0)], 0)
         rec.measure(owners, batch, pay, profile)
@@ -369,14 +362,15 @@ def _owner_rows(solver, batch: LocalGameBatch, potentials: Potentials) -> OwnerP
     return OwnerPayoffs.of(solver.evaluate(batch, potentials))
 
 
-def _expost(rec: _Record, solver, messages, groups, next_states, action_model, potentials):
+def _expost(rec: _Record, problem: StageProblem, messages, groups, next_states) -> float:
     """Ex-post regret of every robot (:mod:`swarmgames.game.expost`) at the realised actions
     ``rec.actions``, the others at ``next_states``, one batch's tables at a time; returns the
     wall time, seconds."""
     t0 = time.perf_counter()
     for owners in groups:
-        batch = expost_games(messages.views(owners), next_states, action_model)
-        rows = _owner_rows(solver, batch, potentials)
+        views = messages.views(owners)
+        batch = expost_games(views, next_states, problem.action_model, t=problem.t)
+        rows = _owner_rows(problem.solver, batch, problem.potentials)
         rec.expost_regret[owners] = expost_regret(rows, rec.actions)
         del batch, rows
     return time.perf_counter() - t0
@@ -451,9 +445,7 @@ def solve(problem: StageProblem, rng: int | np.random.Generator | None = None) -
     integrate_s = solve_s = refine_s = 0.0
     batches, sols = [], []
     for owners in groups:
-        batch, pay, t_build, t_int = evaluate_games(
-            solver, source, owners, action_model, potentials, virtual_mean=mode
-        )
+        batch, pay, t_build, t_int = evaluate_games(problem, source, owners, virtual_mean=mode)
         sol, ref = _refined(solver.solve_payoffs(pay, gen), pay, problem.refine)
         rec.actions[owners] = sol.actions
         rec.marginal[owners] = sol.marginals[:, 0]
@@ -488,13 +480,13 @@ def solve(problem: StageProblem, rng: int | np.random.Generator | None = None) -
     nxt = rec.next_states(states, action_model)
     expost_s = 0.0
     if problem.global_regret:
-        _global_regret(rec, solver, messages, batches, action_model, potentials)
+        _global_regret(rec, problem, messages, batches)
         true_groups = groups
         if not problem.exact or shared is not None:
             # The true neighbourhoods may be sized otherwise, and the ex-post games (each
             # owner deviating alone) are never equal: a table each.
             true_groups = size_groups(messages.sizes, problem.buckets, n_act, on_demand=on_demand)
-        expost_s = _expost(rec, solver, messages, true_groups, nxt, action_model, potentials)
+        expost_s = _expost(rec, problem, messages, true_groups, nxt)
     extra = {}
     if problem.keep_games:
         extra = _in_robot_order(groups, sols)
@@ -520,7 +512,7 @@ def _truth(problem: StageProblem) -> Messages:
     return broadcast(problem.snapshot, problem.h, problem.states)
 
 
-def _global_regret(rec: _Record, solver, messages, batches, action_model, potentials) -> None:
+def _global_regret(rec: _Record, problem: StageProblem, messages, batches) -> None:
     """Global regret from the solved games' owner rows where they are the true games (no
     virtual mean, no context, and the members and states the robot knew are the actual ones:
     always with exact delivery, and with routed delivery wherever every message arrived
@@ -529,12 +521,13 @@ def _global_regret(rec: _Record, solver, messages, batches, action_model, potent
     batch at a time."""
 
     def again(owners) -> np.ndarray:
-        batch = build_local_games(messages.views(owners), action_model, virtual_mean="off")
+        views = messages.views(owners)
+        batch = build_local_games(views, problem.action_model, virtual_mean="off", t=problem.t)
         # Only the owner's row is read: the others are held at their realised actions.
         batch = owner_deviations(batch, rec.actions)
-        return global_regret(_owner_rows(solver, batch, potentials), rec.actions)
+        return global_regret(_owner_rows(problem.solver, batch, problem.potentials), rec.actions)
 
-    n_act = int(action_model.n_actions)
+    n_act = problem.n_actions
     for owners, redo, rows in batches:
         if rows is not None:
             rec.global_regret[owners[~redo]] = global_regret(rows, rec.actions)
@@ -579,7 +572,7 @@ def _solve_centralised(problem: StageProblem, gen: np.random.Generator) -> Stage
     solver, potentials, action_model = problem.solver, problem.potentials, problem.action_model
     states, n = problem.states, problem.n_robots
     t0 = time.perf_counter()
-    batch = centralised_game(problem.snapshot, problem.h, states, action_model)
+    batch = centralised_game(problem.snapshot, problem.h, states, action_model, t=problem.t)
     t1 = time.perf_counter()
     pay = solver.evaluate(batch, potentials)
     t2 = time.perf_counter()
@@ -593,11 +586,11 @@ def _solve_centralised(problem: StageProblem, gen: np.random.Generator) -> Stage
     rec = _Record(n)
     rec.actions[:] = separate_colocated(states, actions, marginal, batch.action_mask[0], gen)
     messages, groups = plan_stage(problem)
-    _true_measures(rec, solver, messages, groups, action_model, potentials)
+    _true_measures(rec, problem, messages, groups)
     nxt = rec.next_states(states, action_model)
     expost_s = 0.0
     if problem.global_regret:
-        expost_s = _expost(rec, solver, messages, groups, nxt, action_model, potentials)
+        expost_s = _expost(rec, problem, messages, groups, nxt)
     rec.iterations[:] = int(sol.iterations[0])
     rec.converged[:] = bool(sol.converged[0])
     if ref is not None:
@@ -651,15 +644,14 @@ def measure_stage(problem: StageProblem, actions, *, expost: bool = True) -> Sta
     """
     rec = _given_actions(problem, actions)
     messages, groups = plan_stage(problem)
-    solver, potentials, action_model = problem.solver, problem.potentials, problem.action_model
-    integrate_s = _true_measures(rec, solver, messages, groups, action_model, potentials)
-    nxt = rec.next_states(problem.states, action_model)
+    integrate_s = _true_measures(rec, problem, messages, groups)
+    nxt = rec.next_states(problem.states, problem.action_model)
     expost_s = 0.0
     if expost:
-        expost_s = _expost(rec, solver, messages, groups, nxt, action_model, potentials)
+        expost_s = _expost(rec, problem, messages, groups, nxt)
     return rec.solution(
         problem.states,
-        action_model,
+        problem.action_model,
         nxt,
         integrate_s=integrate_s,
         n_games=problem.n_robots,
@@ -687,7 +679,7 @@ def measure_expost(problem: StageProblem, actions, next_states: np.ndarray) -> n
     if nxt.shape != problem.states.shape:
         raise ValueError(f"next_states must have shape {problem.states.shape} (got {nxt.shape})")
     messages, groups = plan_stage(problem)
-    _expost(rec, problem.solver, messages, groups, nxt, problem.action_model, problem.potentials)
+    _expost(rec, problem, messages, groups, nxt)
     return rec.expost_regret
 
 
@@ -702,19 +694,21 @@ def stage_regret(
     alpha_b: float = 0.001,
     *,
     pair_weighting: str = "sum",
+    t: float = 0.0,
 ) -> np.ndarray:
     """Global (stage-game) regret of every robot at the realised joint action.
 
     Robot i's payoff is eq. 1 over its neighbourhood N_i(h) in ``snapshot`` with the actual
     ``states`` (no virtual means); its regret is the most it could gain by changing only its
     own action, every other robot keeping its realised action. Pass the snapshot taken as the
-    truth (for example instantaneous BFS on the geometry rather than lagging routing tables).
+    truth (for example instantaneous BFS on the geometry rather than lagging routing tables);
+    ``t`` is the stage time the games carry (``LocalGameBatch.t``), seconds.
 
     Returns
     -------
     ndarray, shape (N,)
         >= 0; 0 for every robot iff the joint action is a pure NE of the stage game.
     """
-    batch = local_games(snapshot, h, states, action_model, virtual_mean="off")
+    batch = local_games(snapshot, h, states, action_model, virtual_mean="off", t=t)
     payoffs = evaluate_payoffs(batch, potentials, alpha_a, alpha_b, pair_weighting=pair_weighting)
     return global_regret(payoffs, joint_actions)

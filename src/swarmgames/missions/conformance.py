@@ -15,8 +15,12 @@ What is checked
 * the potentials on the local games of a line of robots, with and without virtual means
   (:func:`~swarmgames.game.checks.check_potentials`: shapes, finite values, games that do not
   depend on each other), before and after one stage of random valid actions;
-* ``swarm_metrics``: a mapping of names to finite real numbers, the same names at every stage,
-  none taken by the loop's own columns;
+* time: the potentials on the same local games at two stage times (``batch.t``), finite and of
+  the right shape at both;
+* ``swarm_metrics(states, previous, t)``: a mapping of names to finite real numbers, the same
+  names at every stage, none taken by the loop's own columns;
+* the metrics hooks' signatures: ``swarm_metrics`` and ``robot_metrics`` take the stage time
+  ``t``; one written without it is one line naming the hook and the signature expected;
 * the optional hooks, where present: ``robot_metrics`` (finite ``(N,)`` arrays), ``summary``
   (JSON-serialisable values), ``draw`` (runs on a matplotlib Axes), ``extent`` (a box with
   ``xmin < xmax`` and ``ymin < ymax``) and ``baselines`` (named callables that return one
@@ -25,9 +29,11 @@ What is checked
 
 from __future__ import annotations
 
+import inspect
 import json
 import numbers
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -40,6 +46,16 @@ from swarmgames.names import CONTROLLERS, VIRTUAL_MEANS
 from swarmgames.topology import TopologySnapshot
 
 __all__ = ["MissionCheckError", "check_mission"]
+
+#: Two stage times (seconds) at which the time-dependent parts are exercised: the stages of
+#: the metrics check and the batches of the potentials' time check.
+_TIMES = (10.0, 250.0)
+
+#: The metrics hooks, with their arguments as the loop passes them.
+_METRICS_HOOKS = {
+    "swarm_metrics": "swarm_metrics(states, previous, t)",
+    "robot_metrics": "robot_metrics(states, t)",
+}
 
 
 class MissionCheckError(ValueError):
@@ -156,6 +172,7 @@ def check_mission(mission: Any, n_robots: int = 4, seed: int = 0) -> None:
     valid = action_mask_of(model, s0)
     pick = np.array([rng.choice(np.flatnonzero(v)) for v in valid])
     s1 = nxt[np.arange(n_robots), pick]
+    found_before = len(problems)
     for states, when in ((s0, "at the initial states"), (s1, "after one stage")):
         for vm in VIRTUAL_MEANS:
             batch = local_games(snap, 1, states, model, virtual_mean=vm)
@@ -167,30 +184,75 @@ def check_mission(mission: Any, n_robots: int = 4, seed: int = 0) -> None:
                 )
                 break
 
+    if len(problems) == found_before:  # time adds nothing to potentials already failing
+        problems += _time_problems(mission.potentials, local_games(snap, 1, s1, model))
+
     # Metrics.
+    old = _signature_problems(mission, s0)
+    problems += list(old.values())
     keys = None
-    for states, prev, when in ((s0, None, "first stage"), (s1, s0, "second stage")):
+    stages = ((s0, None, _TIMES[0], "first stage"), (s1, s0, _TIMES[1], "second stage"))
+    if "swarm_metrics" in old:  # reported once above, not once per call
+        stages = ()
+    for states, prev, t, when in stages:
         try:
-            out = mission.swarm_metrics(states, prev)
+            out = mission.swarm_metrics(states, prev, t)
         except Exception as exc:
             problems.append(f"swarm_metrics at the {when} raised {type(exc).__name__}: {exc}")
             break
         problems += _metric_problems(f"swarm_metrics ({when})", out, None, keys)
         keys = list(out) if isinstance(out, dict) else keys
-    problems += _optional_hooks(mission, s1, keys or [])
+    # summary reads the swarm_metrics columns: unknown when that hook could not be called.
+    skip = set(old) | ({"summary"} if "swarm_metrics" in old else set())
+    problems += _optional_hooks(mission, s1, keys or [], skip=skip)
     if problems:
         raise MissionCheckError(label, problems)
 
 
-def _optional_hooks(mission: Any, states: np.ndarray, keys: list[str]) -> list[str]:
+def _time_problems(potentials: Any, batch: Any) -> list[str]:
+    """The potentials on ``batch`` at each of two stage times: finite, of the right shape.
+
+    A mission with time-varying data (a moving target) reads ``batch.t``; one that does not
+    gives the same values at both times, which is fine too.
+    """
+    found: list[str] = []
+    for t in _TIMES:
+        try:
+            check_potentials(potentials, replace(batch, t=t))
+        except Exception as exc:
+            found.append(f"potentials at stage time t = {t:g} s: {type(exc).__name__}: {exc}")
+    return found
+
+
+def _signature_problems(mission: Any, states: np.ndarray) -> dict[str, str]:
+    """The metrics hooks that cannot be called with the stage time: hook -> one line."""
+    found: dict[str, str] = {}
+    args = {"swarm_metrics": (states, None, _TIMES[0]), "robot_metrics": (states, _TIMES[0])}
+    for hook, expected in _METRICS_HOOKS.items():
+        if not hasattr(mission, hook):
+            continue
+        try:
+            inspect.signature(getattr(mission, hook)).bind(*args[hook])
+        except TypeError:
+            found[hook] = (
+                f"{hook} must take the stage time: {expected}, t the stage time in seconds "
+                f"(got {hook}{inspect.signature(getattr(mission, hook))})"
+            )
+        except ValueError:  # no signature to read (a builtin): the call itself will tell
+            continue
+    return found
+
+
+def _optional_hooks(mission: Any, states: np.ndarray, keys: list[str], skip: set[str]) -> list[str]:
     found: list[str] = []
     n = states.shape[0]
-    if hasattr(mission, "robot_metrics"):
+    if hasattr(mission, "robot_metrics") and "robot_metrics" not in skip:
         try:
-            found += _metric_problems("robot_metrics", mission.robot_metrics(states), n)
+            out = mission.robot_metrics(states, _TIMES[1])
+            found += _metric_problems("robot_metrics", out, n)
         except Exception as exc:
             found.append(f"robot_metrics raised {type(exc).__name__}: {exc}")
-    if hasattr(mission, "summary"):
+    if hasattr(mission, "summary") and "summary" not in skip:
         times = np.array([0.0, 1.0])
         swarm = {k: np.zeros(2) for k in ("mean_payoff", *keys)}
         try:

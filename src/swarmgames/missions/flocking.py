@@ -350,10 +350,12 @@ class FlockingMission:
         out[:, 4] = speed * np.sin(heading)
         return out
 
-    def swarm_metrics(self, states: np.ndarray, previous: np.ndarray | None) -> dict[str, float]:
+    def swarm_metrics(
+        self, states: np.ndarray, previous: np.ndarray | None, t: float
+    ) -> dict[str, float]:
         """``polarisation``, ``cohesion_radius_m`` (largest distance to the swarm's centroid),
         ``near_collisions`` (pairs closer than ``collision_m``), ``link_components`` (of the
-        graph of robots within radio range) and ``mean_speed_m_s``."""
+        graph of robots within radio range) and ``mean_speed_m_s``; ``t`` is not read."""
         s = np.asarray(states, dtype=float)
         pos, vel = s[:, :3], s[:, 3:5]
         radius = np.linalg.norm(pos - pos.mean(axis=0), axis=1).max() if len(s) else 0.0
@@ -365,7 +367,7 @@ class FlockingMission:
             "mean_speed_m_s": float(np.linalg.norm(vel, axis=1).mean()) if len(s) else 0.0,
         }
 
-    def robot_metrics(self, states: np.ndarray) -> dict[str, np.ndarray]:
+    def robot_metrics(self, states: np.ndarray, t: float) -> dict[str, np.ndarray]:
         """``speed_m_s`` of every robot."""
         return {"speed_m_s": np.linalg.norm(np.asarray(states, dtype=float)[:, 3:5], axis=1)}
 

@@ -8,13 +8,19 @@ A mission is data plus potentials. It never drives the stage loop; the loop
   (:class:`~swarmgames.game.actions.ActionModel`);
 * ``state_dim`` and ``initial_states(n_robots, rng)``: the robots' states, D columns whose
   first three are the position (x, y, z) in metres (the network sees only those);
-* ``swarm_metrics(states, previous)``: the mission's per-stage figures, name → float (the
+* ``swarm_metrics(states, previous, t)``: the mission's per-stage figures, name → float (the
   columns that follow ``mean_payoff`` in ``swarm.csv``, e.g. ``coverage`` in dBm).
+
+Time is the simulation's, never a state column: the stage time ``t`` in seconds (the warm-up
+plus the stage number times the control period, the ``t`` column of ``swarm.csv``) reaches
+the potentials as ``batch.t`` (:class:`~swarmgames.game.batch.LocalGameBatch`) and the metrics
+hooks as their ``t`` argument, so a mission with time-varying data (a moving target) keeps its
+states to what the robots are.
 
 Optional hooks, used when present (:func:`~swarmgames.missions.conformance.check_mission`
 checks them too):
 
-* ``robot_metrics(states) -> {name: (N,) array}``: extra columns of ``metrics.csv``;
+* ``robot_metrics(states, t) -> {name: (N,) array}``: extra columns of ``metrics.csv``;
 * ``summary(times, swarm) -> {name: value}``: headline figures for ``summary.json`` from the
   per-stage metrics (``swarm`` maps every ``swarm.csv`` column to an ``(S,)`` array);
 * ``draw(ax)``: draw the mission's background (a region, a goal) on a matplotlib Axes, under
@@ -152,7 +158,9 @@ class Mission(Protocol):
         random draw from ``rng``."""
         ...
 
-    def swarm_metrics(self, states: np.ndarray, previous: np.ndarray | None) -> dict[str, float]:
-        """The mission's figures at one stage, from the states ``(N, D)`` at the stage and
-        those of the stage before (``None`` at the first stage)."""
+    def swarm_metrics(
+        self, states: np.ndarray, previous: np.ndarray | None, t: float
+    ) -> dict[str, float]:
+        """The mission's figures at one stage, from the states ``(N, D)`` at the stage, those
+        of the stage before (``None`` at the first stage) and the stage time ``t`` in seconds."""
         ...

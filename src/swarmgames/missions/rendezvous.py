@@ -310,10 +310,13 @@ class RendezvousMission:
         keep = cand[power >= self.radio.rx_threshold_dbm]
         return set(map(tuple, keep.tolist()))
 
-    def swarm_metrics(self, states: np.ndarray, previous: np.ndarray | None) -> dict[str, float]:
+    def swarm_metrics(
+        self, states: np.ndarray, previous: np.ndarray | None, t: float
+    ) -> dict[str, float]:
         """``goal_distance_m`` (mean) and ``max_goal_distance_m`` (horizontal, metres),
         ``links_lost`` (pairs linked at the previous stage and not now; 0 at the first) and
-        ``link_components`` (components of the link graph by distance)."""
+        ``link_components`` (components of the link graph by distance). The goal does not move:
+        ``t`` is not read."""
         dist = self._goal_distances(states)
         lost = 0
         if previous is not None:
@@ -325,7 +328,7 @@ class RendezvousMission:
             "link_components": float(link_components(states, self.range_m)),
         }
 
-    def robot_metrics(self, states: np.ndarray) -> dict[str, np.ndarray]:
+    def robot_metrics(self, states: np.ndarray, t: float) -> dict[str, np.ndarray]:
         """``goal_distance_m``: each robot's horizontal distance to the goal, metres."""
         return {"goal_distance_m": self._goal_distances(states)}
 

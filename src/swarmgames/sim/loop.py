@@ -462,10 +462,11 @@ class StageLoop:
         n = pos.shape[0]
         mean_h, max_h, n_comp, edges = swarm_graph_stats(snap)
         if alive.any():
-            measured = self.mission.swarm_metrics(pos[alive], None if prev is None else prev[alive])
+            before = None if prev is None else prev[alive]
+            measured = self.mission.swarm_metrics(pos[alive], before, t)
         else:  # nothing left to measure
             measured = dict.fromkeys(self._metric_names, float("nan"))
-        extra = self._robot_metrics(pos) if self._robot_metrics is not None else {}
+        extra = self._robot_metrics(pos, t) if self._robot_metrics is not None else {}
         new_pos = np.array(dec.next_states, dtype=float)
         new_pos[~alive] = pos[~alive]
         new_pos[~alive, 3:] = 0.0  # a crashed robot stops

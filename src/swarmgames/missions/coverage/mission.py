@@ -70,8 +70,11 @@ class CoverageMission:
         """Uniform over the take-off disc at the flight altitude, at rest."""
         return self.takeoff.states(n_robots, rng, self.state_dim)
 
-    def swarm_metrics(self, states: np.ndarray, previous: np.ndarray | None) -> dict[str, float]:
-        """``coverage``: the ROI's expected best signal, dBm."""
+    def swarm_metrics(
+        self, states: np.ndarray, previous: np.ndarray | None, t: float
+    ) -> dict[str, float]:
+        """``coverage``: the ROI's expected best signal, dBm (the ROI does not move: ``t``
+        is not read)."""
         return {"coverage": self._coverage().coverage(states)}
 
     def summary(self, times: np.ndarray, swarm: dict[str, np.ndarray]) -> dict[str, Any]:
