@@ -29,7 +29,7 @@ from dataclasses import replace
 import numpy as np
 
 from swarmgames.errors import ConfigError
-from swarmgames.game import Solver, make_solver
+from swarmgames.game import Solver, capabilities_of, make_solver
 from swarmgames.game.stage import StageSolution, measure_expost, measure_stage, solve_stage
 from swarmgames.missions.coverage.lloyd import lloyd_actions
 
@@ -66,6 +66,7 @@ class _Controller:
 
     def __init__(self, config, mission) -> None:
         self.mission = mission
+        capabilities_of(mission.potentials)  # a plug-in must declare its optional forms
         self.hops = int(config.network.hops)
         self.buckets = int(config.game.buckets)
         self.solver_name = config.game.solver
