@@ -156,13 +156,14 @@ class PairSource(Protocol):
 
     Optional (``at_sums``): ``at_sums(profile) -> (sums, at_kl)``,
     ``at(profile).sum(axis=3)`` (B, K, A) and ``at(profile)[b, k, profile[b, k], l]``
-    (B, K, K), equal to them bit for bit without holding :meth:`at`'s B K² A rows: the payoff and regret measurements use it
+    (B, K, K), equal to them bit for bit without holding :meth:`at`'s B K² A rows: the
+    payoff and regret measurements use it
     (:func:`~swarmgames.game.equilibrium.profile_measures`).
 
     Optional, together (``shared``): ``shared() -> (head, rank)`` (or None) and
     ``ranked_table(games)``, for batches in which games hold the same variables in another
-    order (a dense swarm, where every game holds every robot). ``rank`` (B, K) int ranks every game's variables
-    canonically (a permutation of ``0 .. K-1``, the valid variables first);
+    order (a dense swarm, where every game holds every robot). ``rank`` (B, K) int ranks
+    every game's variables canonically (a permutation of ``0 .. K-1``, the valid variables first);
     ``ranked_table(games)`` returns ``W[games]`` with the variables in rank order,
     ``T[g, rank[b, k], a, rank[b, l], c] = W[b, k, a, l, c]`` for ``b = games[g]`` (the
     engines only read it, so it may be a view of a table the source holds); ``head``
