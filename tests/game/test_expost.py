@@ -14,6 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from swarmgames.game import FunctionPotentials, make_solver, measure_stage, solve_stage
+from swarmgames.game.capabilities import PotentialCapabilities
 from swarmgames.game.expost import expost_games, expost_regret
 from swarmgames.game.local import broadcast
 from swarmgames.game.stage import measure_expost
@@ -27,6 +28,7 @@ class CrowdedGoal:
     (eq. 5) does: a goal, minus a crowding term against the others' states."""
 
     goal = np.array([100.0, 100.0])
+    capabilities = PotentialCapabilities()
 
     def unary(self, batch):
         nxt = np.asarray(batch.next_states)  # (B, K, A, D)

@@ -185,8 +185,9 @@ class PairSource(Protocol):
 
 def shared_tables(source) -> tuple[np.ndarray, np.ndarray] | None:
     """``source.shared()``, ``(head, rank)`` as int64 arrays, when ``source`` is a
-    :class:`PairSource` that ranks its games' variables (declared ``shared``), else None."""
-    same = source.shared() if source.capabilities.shared else None
+    :class:`PairSource` that ranks its games' variables (declared ``shared``), else None
+    (also for ``source`` None)."""
+    same = source.shared() if source is not None and source.capabilities.shared else None
     if same is None:
         return None
     head, rank = same
