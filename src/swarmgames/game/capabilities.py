@@ -4,8 +4,7 @@ The engine has one required form of every plug-in (a potentials object's ``unary
 ``pairwise``, a pair source's ``table``, ``at`` and ``select``) and cheaper or richer
 optional forms. Which optional forms an object offers it *declares*, in the manner of
 scikit-learn's estimator tags: a frozen dataclass of booleans that the engine reads once
-where it needs it, instead of asking ``getattr(obj, "maybe_method", None)`` deep in a hot
-path.
+where it needs it, instead of probing the object for methods deep in a hot path.
 
 * :class:`PotentialCapabilities`: the attribute ``capabilities`` of every
   :class:`~swarmgames.game.potentials.Potentials`, read through :func:`capabilities_of`,
