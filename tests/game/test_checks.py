@@ -12,6 +12,7 @@ from swarmgames.game import (
     check_potentials,
     local_games,
 )
+from swarmgames.game.capabilities import PotentialCapabilities
 from tests.game.helpers import disk_snapshot, random_games
 
 POS = np.array([[0.0, 0.0], [10.0, 0.0], [20.0, 0.0], [30.0, 0.0]])
@@ -32,6 +33,8 @@ def test_well_behaved_plug_ins_pass():
 
 def test_potential_mixing_games_is_caught():
     class Leaky:
+        capabilities = PotentialCapabilities()
+
         def unary(self, batch):
             s = batch.next_states[..., 0]
             return s - s.mean()  # normalised by a statistic over the whole batch

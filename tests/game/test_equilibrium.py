@@ -22,6 +22,7 @@ from swarmgames.game import (
     profile_payoff,
     pure_equilibria,
 )
+from swarmgames.game.capabilities import PairSourceCapabilities
 from tests.game.helpers import disk_snapshot, random_games
 
 
@@ -202,6 +203,8 @@ class _RowsSource:
     """A held table served as a pair source whose rows at a profile are laid out as the
     coverage source's: ``(B, K, K A)`` rows of each variable's profile point, viewed as
     (B, K, A, K)."""
+
+    capabilities = PairSourceCapabilities()
 
     def __init__(self, w):
         self.w = w

@@ -14,6 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from swarmgames.game import FunctionPotentials, StageProblem, make_solver, measure_stage, solve
+from swarmgames.game.capabilities import PotentialCapabilities
 from swarmgames.game.expost import expost_games, expost_regret
 from swarmgames.game.local import broadcast
 from swarmgames.game.stage import measure_expost
@@ -27,6 +28,7 @@ class CrowdedGoal:
     (eq. 5) does: a goal, minus a crowding term against the others' states."""
 
     goal = np.array([100.0, 100.0])
+    capabilities = PotentialCapabilities()
 
     def unary(self, batch):
         nxt = np.asarray(batch.next_states)  # (B, K, A, D)
@@ -141,7 +143,7 @@ def test_expost_regret_against_brute_force_on_a_tiny_swarm():
     assert (out > 0).any()
 
 
-def test_solve_stage_measures_expost_regret_with_the_global_regret():
+def test_solve_measures_expost_regret_with_the_global_regret():
     pos, snap = swarm(12, 5)
     solver = make_solver("mean_field", alpha_b=0.5)
     out = solve(StageProblem.ideal(snap, 2, pos, MODEL, CrowdedGoal(), solver), 0)

@@ -9,6 +9,7 @@ import pytest
 
 from swarmgames.game import evaluate_payoffs, mean_field
 from swarmgames.game.baselines import best_response
+from swarmgames.game.capabilities import PairSourceCapabilities
 from swarmgames.game.equilibrium import (
     enumerate_payoffs,
     global_regret,
@@ -22,6 +23,8 @@ from tests.game.helpers import random_games
 @dataclass(frozen=True, eq=False)
 class HeldSource:
     """A PairSource serving a held table (what any source must be equivalent to)."""
+
+    capabilities = PairSourceCapabilities()
 
     w: np.ndarray
 

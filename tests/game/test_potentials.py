@@ -15,6 +15,7 @@ from swarmgames.game import (
     local_games,
     profile_payoff,
 )
+from swarmgames.game.capabilities import PotentialCapabilities
 from tests.game.helpers import disk_snapshot, random_games
 
 
@@ -157,6 +158,8 @@ def test_wrong_shapes_are_reported():
 class _Both:
     """Dense pairwise and the cheaper symmetrised table of the same φ_p."""
 
+    capabilities = PotentialCapabilities(pair_table=True)
+
     def __init__(self, phi):
         self.phi = phi
 
@@ -175,7 +178,7 @@ class _Both:
 
 
 class _DenseOnly(_Both):
-    pair_table = None
+    capabilities = PotentialCapabilities()  # its pair_table is not declared
 
 
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])

@@ -26,6 +26,7 @@ from swarmgames.game import (
     profile_payoff,
     solve,
 )
+from swarmgames.game.capabilities import PairSourceCapabilities
 from swarmgames.game.equilibrium import _fields
 from swarmgames.game.refine import _field_row, refine_profiles
 from tests.game.helpers import MODEL, POT, disk_snapshot, random_games, swarm
@@ -35,6 +36,8 @@ from tests.game.helpers import MODEL, POT, disk_snapshot, random_games, swarm
 class TransposedSource:
     """A PairSource serving a held table whose ``at`` is a transposed view (the layout of
     the coverage source), recording the largest table it was asked for."""
+
+    capabilities = PairSourceCapabilities()
 
     w: np.ndarray
     served: list = field(default_factory=list)

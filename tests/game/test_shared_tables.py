@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from swarmgames.game import evaluate_payoffs, make_solver, mean_field
+from swarmgames.game import FunctionPotentials, evaluate_payoffs, make_solver, mean_field
+from swarmgames.game.capabilities import PairSourceCapabilities
 from swarmgames.game.memory import stage_memory
 from swarmgames.game.potentials import GamePayoffs, PairSource
 from swarmgames.game.stage import pair_on_demand, size_groups
@@ -26,6 +27,7 @@ class SharingSource:
     whose ranked tables are equal; ``asked`` records the games whose ranked tables the
     engine computed."""
 
+    capabilities = PairSourceCapabilities(shared=True)
     w: np.ndarray
     head: np.ndarray
     rank: np.ndarray
@@ -270,7 +272,12 @@ def test_which_solvers_solve_equal_held_games_on_one_table():
     assert held_sharing(make_solver("mean_field", dtype="float32", engine="compiled"), pot) is None
     assert held_sharing(make_solver("mean_field", dtype="float64", engine="blas"), pot) is None
     assert held_sharing(make_solver("best_response", dtype="float64"), pot) is None
-    assert held_sharing(make_solver("mean_field", dtype="float64"), object()) is None
+    plain = FunctionPotentials(lambda s: s[..., 0])  # declares no held sharing
+    assert (
+        held_sharing(make_solver("mean_field", dtype="float64", engine="compiled"), plain) is None
+    )
+    with pytest.raises(TypeError, match="potentials must declare capabilities"):
+        held_sharing(make_solver("mean_field", dtype="float64"), object())
 
 
 def test_which_solvers_compute_the_coverage_tables_on_demand():
@@ -284,7 +291,9 @@ def test_which_solvers_compute_the_coverage_tables_on_demand():
     assert not pair_on_demand(make_solver("mean_field", dtype="float32", engine="blas"), pot)
     assert not pair_on_demand(make_solver("mean_field", dtype="float32", alpha_b=0.0), pot)
     assert not pair_on_demand(make_solver("best_response", dtype="float32"), pot)
-    assert not pair_on_demand(on, object())  # potentials without the hook
+    assert not pair_on_demand(on, FunctionPotentials(lambda s: s[..., 0]))  # no pair source
+    with pytest.raises(TypeError, match="potentials must declare capabilities"):
+        pair_on_demand(on, object())
 
 
 def test_the_memory_estimate_follows_the_on_demand_batches():

@@ -18,6 +18,7 @@ from swarmgames.game import (
     solve,
     stage_regret,
 )
+from swarmgames.game.capabilities import PotentialCapabilities
 from swarmgames.game.stage import measure_stage
 from tests.game.helpers import MODEL, POT, disk_snapshot
 from tests.game.helpers import swarm as _swarm
@@ -35,6 +36,8 @@ def test_virtual_mean_switch_changes_the_games():
 
 class _Counting:
     """Potentials that count how many local games they evaluate."""
+
+    capabilities = PotentialCapabilities()
 
     def __init__(self, inner):
         self.inner, self.games = inner, 0

@@ -8,6 +8,7 @@ import pytest
 from swarmgames.config import resolve_scenario
 from swarmgames.errors import ConfigError
 from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.capabilities import PotentialCapabilities
 from swarmgames.game.potentials import evaluate_payoffs
 from swarmgames.missions import AccelerationActions, FlockingMission, check_mission, get_mission
 from swarmgames.missions.flocking import FlockingPotentials, polarisation
@@ -138,6 +139,8 @@ def test_pair_table_is_the_symmetrised_pairwise_term_bit_for_bit():
 
 class _Dense:
     """The same potentials without pair_table (the engine's general path)."""
+
+    capabilities = PotentialCapabilities()
 
     def __init__(self, pot):
         self.pot = pot

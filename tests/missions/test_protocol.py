@@ -18,7 +18,7 @@ from pydantic import Field
 import swarmgames
 from swarmgames.config import ScenarioConfig, parse_config, resolve_scenario, to_toml
 from swarmgames.errors import ConfigError
-from swarmgames.game import FunctionPotentials
+from swarmgames.game import FunctionPotentials, PotentialCapabilities
 from swarmgames.missions import (
     ENTRY_POINT_GROUP,
     HeadingActions,
@@ -140,10 +140,37 @@ class _BadBaselines(GoalMission):
         }
 
 
+class _Undeclared:
+    """Potentials without a ``capabilities`` declaration."""
+
+    def unary(self, batch):
+        return np.zeros(np.shape(batch.action_mask))
+
+    def pairwise(self, batch):
+        return None
+
+
+class _BadNeighbourhood(_Undeclared):
+    """A declared neighbourhood term of the wrong shape."""
+
+    capabilities = PotentialCapabilities(neighbourhood=True)
+
+    def neighbourhood(self, batch):
+        return np.zeros(np.shape(batch.action_mask))  # (B, K, A), not (B, A)
+
+
 @pytest.mark.parametrize(
     ("mission", "problems"),
     [
         (_broken(name=""), ["name must be a non-empty string"]),
+        (
+            _broken(potentials=_Undeclared()),
+            ["potentials must declare capabilities: a PotentialCapabilities attribute"],
+        ),
+        (
+            _broken(potentials=_BadNeighbourhood()),
+            ["potentials.neighbourhood must return shape (4, 5)"],
+        ),
         (_broken(state_dim=2), ["state_dim must be an integer >= 3"]),
         (_WrongShape(), ["initial_states must return shape (4, 3)"]),
         (_Global(), ["global random state", "not reproducible"]),
@@ -407,7 +434,7 @@ PLUGIN = '''
 import numpy as np
 from pydantic import Field
 
-from swarmgames.game import FunctionPotentials
+from swarmgames.game import FunctionPotentials, PotentialCapabilities
 from swarmgames.missions import HeadingActions, MissionEntry, TakeOff
 from swarmgames.section import Section
 

@@ -9,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from swarmgames.game import evaluate_payoffs, mean_field
+from swarmgames.game.capabilities import PotentialCapabilities
 from swarmgames.missions import CoveragePotentials, GaussianROI, HeadingActions, SignalModel
 from swarmgames.missions.coverage.window import RoiRaster, floor_distance_sq, windowed_unary
 
@@ -85,6 +86,8 @@ def test_same_marginals_as_the_full_grid():
     win = windowed_unary(raster, SIGNAL, -100.0, mask, amask, states, nxt, softness_db=1.0)
 
     class Table:
+        capabilities = PotentialCapabilities()
+
         def __init__(self, u):
             self.u = u
 

@@ -8,6 +8,12 @@ See ``docs/game.md`` for the guide and the contract with scenarios.
 from swarmgames.game.actions import ActionModel, DisplacementActions, action_mask_of
 from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
 from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.capabilities import (
+    PairSourceCapabilities,
+    PotentialCapabilities,
+    SolverCapabilities,
+    capabilities_of,
+)
 from swarmgames.game.checks import check_action_model, check_potentials
 from swarmgames.game.colocated import colocated_groups, separate_colocated
 from swarmgames.game.equilibrium import (
@@ -90,10 +96,13 @@ __all__ = [
     "MeanFieldSolver",
     "Messages",
     "OwnerPayoffs",
+    "PairSourceCapabilities",
+    "PotentialCapabilities",
     "Potentials",
     "RandomSolver",
     "Refinement",
     "Solver",
+    "SolverCapabilities",
     "StageProblem",
     "StageSolution",
     "TablePotentials",
@@ -102,6 +111,7 @@ __all__ = [
     "broadcast",
     "build_local_game",
     "build_local_games",
+    "capabilities_of",
     "centralised_game",
     "check_action_model",
     "check_potentials",

@@ -9,6 +9,9 @@ What is checked
 Potentials (:func:`check_potentials`):
   * ``unary`` / ``pairwise`` exist and return arrays of the documented shapes, or ``None``
     for ``pairwise``, with a real floating or integer dtype;
+  * ``capabilities`` is a :class:`~swarmgames.game.capabilities.PotentialCapabilities`
+    whose declared forms have their methods; a declared ``neighbourhood(batch)`` returns
+    ``(B, A)`` real values, finite at the owners' valid actions;
   * values are finite at every valid entry (padding may hold anything);
   * **game independence**: evaluating a sub-batch gives the same rows as evaluating the whole
     batch. A potential that mixes games (a sum over the batch axis, a normalisation by a batch
@@ -26,6 +29,7 @@ import numpy as np
 
 from swarmgames.game.actions import ActionModel, action_mask_of
 from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.capabilities import capabilities_of
 from swarmgames.game.potentials import Potentials, evaluate_payoffs
 
 __all__ = ["check_action_model", "check_potentials"]
@@ -48,10 +52,16 @@ def check_potentials(potentials: Potentials, batch: LocalGameBatch) -> None:
     for name in ("unary", "pairwise"):
         if not callable(getattr(potentials, name, None)):
             raise ValueError(f"potentials must have a callable {name}(batch) method")
+    try:
+        caps = capabilities_of(potentials)
+    except TypeError as exc:
+        raise ValueError(str(exc)) from None
     # Shapes and finiteness (evaluate_payoffs checks them and names the entry).
     full = evaluate_payoffs(batch, potentials, 1.0, 1.0)
-    for name in ("unary", "pairwise"):
-        out = getattr(potentials, name)(batch)
+    outputs = {"unary": potentials.unary(batch), "pairwise": potentials.pairwise(batch)}
+    if caps.neighbourhood:
+        outputs["neighbourhood"] = potentials.neighbourhood(batch)
+    for name, out in outputs.items():
         if out is None:
             continue
         arr = np.asarray(out)
@@ -62,9 +72,10 @@ def check_potentials(potentials: Potentials, batch: LocalGameBatch) -> None:
     half = np.arange(batch.n_games)[::2]
     part = evaluate_payoffs(batch.select(half), potentials, 1.0, 1.0)
     if not np.allclose(part.unary, full.unary[half], rtol=1e-9, atol=1e-12):
+        which = "unary or neighbourhood" if caps.neighbourhood else "unary"
         raise ValueError(
-            "potentials.unary of a game depends on the other games of the batch: a sub-batch "
-            "gives different values (batched and one-by-one solving would disagree)"
+            f"potentials.{which} of a game depends on the other games of the batch: a "
+            "sub-batch gives different values (batched and one-by-one solving would disagree)"
         )
     part_w, full_w = part.pair_table(), full.pair_table(half)
     if (part_w is None) != (full_w is None) or (

@@ -34,10 +34,12 @@ import numpy as np
 from swarmgames.arrays import freeze_fields
 from swarmgames.errors import PayoffError
 from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.capabilities import PotentialCapabilities, capabilities_of
 from swarmgames.game.potentials import (
     GamePayoffs,
     Potentials,
     evaluate_payoffs,
+    neighbourhood_row,
     pair_weights,
     weighted_owner_rows,
 )
@@ -80,17 +82,18 @@ def _pair_sums(payoffs: GamePayoffs, x: np.ndarray) -> tuple[np.ndarray, np.ndar
     """``Σ_l W[b, k, a, l, x_l]`` (B, K, A) and ``W[b, k, x_k, l, x_l]`` (B, K, K) at the
     pure profile ``x``: from the pair source's ``at_sums`` where it has one (equal bit for
     bit, without the B K² A rows), else summed and gathered from ``payoffs.pair_at(x)``."""
-    at_sums = getattr(payoffs.pair_source, "at_sums", None)
-    if callable(at_sums):
-        return at_sums(x)
+    source = payoffs.pair_source
+    if source is not None and source.capabilities.at_sums:
+        return source.at_sums(x)
     at_l = payoffs.pair_at(x)
     return at_l.sum(axis=3), _at_profile(at_l, x)
 
 
 def _pairs_at(payoffs: GamePayoffs, x: np.ndarray) -> np.ndarray:
     """The second of :func:`_pair_sums` alone: ``W[b, k, x_k, l, x_l]``, (B, K, K)."""
-    if callable(getattr(payoffs.pair_source, "at_sums", None)):
-        return _pair_sums(payoffs, x)[1]
+    source = payoffs.pair_source
+    if source is not None and source.capabilities.at_sums:
+        return source.at_sums(x)[1]
     return _at_profile(payoffs.pair_at(x), x)
 
 
@@ -263,18 +266,29 @@ def owner_deviations(batch: LocalGameBatch, joint_actions) -> LocalGameBatch:
 
 
 class _PairOnly:
-    """``potentials`` without their unary (zeros): the pairwise part of an evaluation."""
+    """``potentials`` without their unary (zeros) and neighbourhood term: the pairwise part
+    of an evaluation, in every pairwise form the potentials declare."""
 
-    def __init__(self, potentials) -> None:
+    def __init__(self, potentials, caps: PotentialCapabilities) -> None:
         self.potentials = potentials
+        self.capabilities = PotentialCapabilities(
+            pair_table=caps.pair_table, pair_source=caps.pair_source
+        )
 
     def unary(self, batch: LocalGameBatch) -> np.ndarray:
         return np.zeros(batch.action_mask.shape)
 
-    def __getattr__(self, name: str) -> Any:  # pairwise, pair_table, pair_source
-        if name.startswith("__") or name == "potentials":
-            raise AttributeError(name)
-        return getattr(self.potentials, name)
+    def pairwise(self, batch: LocalGameBatch) -> np.ndarray | None:
+        return self.potentials.pairwise(batch)
+
+    def pair_table(self, batch: LocalGameBatch, dtype) -> np.ndarray | None:
+        return self.potentials.pair_table(batch, dtype)
+
+    def pair_source(self, batch: LocalGameBatch, weights, dtype):
+        return self.potentials.pair_source(batch, weights, dtype)
+
+    def pair_on_demand(self, dtype) -> bool:
+        return self.potentials.pair_on_demand(dtype)
 
 
 class _SourceOnly(_PairOnly):
@@ -282,7 +296,9 @@ class _SourceOnly(_PairOnly):
     whose pairwise part is the source, or nothing (the owners' table rows are then asked
     for separately)."""
 
-    pair_table = None
+    def __init__(self, potentials, caps: PotentialCapabilities) -> None:
+        super().__init__(potentials, caps)
+        self.capabilities = PotentialCapabilities(pair_source=caps.pair_source)
 
     def pairwise(self, batch: LocalGameBatch) -> None:
         return None
@@ -301,42 +317,43 @@ def owner_payoffs(
     pair_weighting)``,
     equal to ``OwnerPayoffs.of`` of it bit for bit: what :func:`global_regret` reads.
 
-    Potentials with the optional ``owner_unary(batch) -> (B, A)`` method (φ_u of variable 0
-    only, equal to ``unary(batch)[:, 0]``) are asked for the owners' unary alone (the coverage
-    potentials then integrate one variable per game instead of K); others are evaluated
-    whole. Those with ``owner_pair_table(batch, dtype) -> (B, A, K, A)`` (row 0 of
-    ``pair_table``, or None) are asked for the owners' pairwise rows alone where they give
-    no pair source for the batch (one row of the table instead of K).
+    Potentials that declare ``owner_rows`` (``owner_unary(batch) -> (B, A)``, φ_u of
+    variable 0 only, equal to ``unary(batch)[:, 0]``) are asked for the owners' unary alone
+    (the coverage potentials then integrate one variable per game instead of K); others are
+    evaluated whole. Those that declare ``pair_table`` too are asked for the owners'
+    pairwise rows alone (``owner_pair_table(batch, dtype) -> (B, A, K, A)``, row 0 of
+    ``pair_table``, or None) where they give no pair source for the batch (one row of the
+    table instead of K). A declared neighbourhood term is added to the owners' unary as
+    :func:`~swarmgames.game.potentials.evaluate_payoffs` adds it.
 
     Raises
     ------
     ValueError
         As :func:`~swarmgames.game.potentials.evaluate_payoffs`.
     """
-    owner_fn = getattr(potentials, "owner_unary", None)
-    if not callable(owner_fn):
+    caps = capabilities_of(potentials)
+    if not caps.owner_rows:
         whole = evaluate_payoffs(
             batch, potentials, alpha_a, alpha_b, dtype=dtype, pair_weighting=pair_weighting
         )
         return OwnerPayoffs.of(whole)
     kw = {"dtype": dtype, "pair_weighting": pair_weighting}
     rows = None
-    rows_fn = getattr(potentials, "owner_pair_table", None)
-    if callable(rows_fn) and alpha_b > 0 and batch.pair_mask is None:
+    if caps.pair_table and alpha_b > 0 and batch.pair_mask is None:
         # The pair source where the potentials give one, else the owners' table rows alone.
-        pay = evaluate_payoffs(batch, _SourceOnly(potentials), alpha_a, alpha_b, **kw)
+        pay = evaluate_payoffs(batch, _SourceOnly(potentials, caps), alpha_a, alpha_b, **kw)
         if pay.pair_source is None:
             dt = np.dtype(dtype)
-            table = rows_fn(batch, dt)
+            table = potentials.owner_pair_table(batch, dt)
             if table is not None:
                 w = pair_weights(batch, alpha_b, pair_weighting)
                 rows = OwnerPayoffs.of(pay)
                 rows = replace(rows, pair=weighted_owner_rows(batch, table, w, dt))
     if rows is None:
-        pay = evaluate_payoffs(batch, _PairOnly(potentials), alpha_a, alpha_b, **kw)
+        pay = evaluate_payoffs(batch, _PairOnly(potentials, caps), alpha_a, alpha_b, **kw)
         rows = OwnerPayoffs.of(pay)
     amask = np.asarray(batch.action_mask)[:, 0]
-    u = np.asarray(owner_fn(batch))
+    u = np.asarray(potentials.owner_unary(batch))
     if u.shape != amask.shape:
         raise ValueError(f"owner_unary must have shape {amask.shape} (got {u.shape})")
     bad = amask & ~np.isfinite(u)
@@ -348,6 +365,8 @@ def owner_payoffs(
         )
     dt = np.dtype(dtype)
     unary = np.where(amask, u, 0.0).astype(dt, copy=False) * dt.type(alpha_a)
+    if caps.neighbourhood:
+        unary += neighbourhood_row(batch, potentials, alpha_a, dt)
     return OwnerPayoffs(
         unary, rows.pair, rows.action_mask, rows.mask, rows.owner, rows.members, rows.pair_source
     )

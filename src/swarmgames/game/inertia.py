@@ -11,8 +11,11 @@ game cycles. A small cost on every action that moves the robot,
 removes these 2-cycles: a robot moves only while a move gains more than ``c``. It changes no
 deviation gain between two moving actions, only between moving and staying.
 :class:`Inertia` wraps any :class:`~swarmgames.game.potentials.Potentials` and adds the cost
-to its unary; everything else (``pairwise``, the optional ``pair_table``, attributes such as
-timings) is the wrapped object's.
+to its unary; the pairwise forms and the other optional forms are the wrapped object's, and
+it declares them as the wrapped object does
+(:class:`~swarmgames.game.capabilities.PotentialCapabilities`), with the owner's unary row
+(``owner_unary``) wherever that needs no owner row of a pairwise table the wrapped object
+lacks.
 
 References
 ----------
@@ -22,12 +25,12 @@ References
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.capabilities import PotentialCapabilities, capabilities_of
 from swarmgames.game.potentials import Potentials
 
 __all__ = ["Inertia"]
@@ -72,6 +75,13 @@ class Inertia:
         if isinstance(self.dims, bool) or not isinstance(self.dims, int) or self.dims < 1:
             raise ValueError(f"dims must be an integer >= 1 (got {self.dims!r})")
 
+    @property
+    def capabilities(self) -> PotentialCapabilities:
+        """The wrapped potentials' declared forms, and ``owner_rows`` wherever the wrapped
+        ones declare it or have no pairwise table (whose owner rows would be needed)."""
+        inner = capabilities_of(self.potentials)
+        return replace(inner, owner_rows=inner.owner_rows or not inner.pair_table)
+
     def unary(self, batch: LocalGameBatch) -> np.ndarray:
         """The wrapped unary minus ``cost`` wherever the action moves the robot, (B, K, A)."""
         out = np.asarray(self.potentials.unary(batch), dtype=float)
@@ -86,9 +96,8 @@ class Inertia:
     def owner_unary(self, batch: LocalGameBatch) -> np.ndarray:
         """:meth:`unary` of every game's variable 0 only, (B, A), bit for bit (the wrapped
         potentials' ``owner_unary`` if they have one)."""
-        inner = getattr(self.potentials, "owner_unary", None)
-        if callable(inner):
-            out = np.asarray(inner(batch), dtype=float)
+        if capabilities_of(self.potentials).owner_rows:
+            out = np.asarray(self.potentials.owner_unary(batch), dtype=float)
         else:
             out = np.asarray(self.potentials.unary(batch), dtype=float)[:, 0]
         if not self.cost:
@@ -103,8 +112,30 @@ class Inertia:
         """The wrapped pairwise term, unchanged."""
         return self.potentials.pairwise(batch)
 
-    def __getattr__(self, name: str) -> Any:
-        # Optional parts of the protocol (pair_table) and the wrapped object's attributes.
-        if name.startswith("__") or name == "potentials":
-            raise AttributeError(name)
-        return getattr(self.potentials, name)
+    def pair_table(self, batch: LocalGameBatch, dtype=np.float64) -> np.ndarray | None:
+        """The wrapped ``pair_table`` (declared ``pair_table``)."""
+        return self.potentials.pair_table(batch, dtype)
+
+    def owner_pair_table(self, batch: LocalGameBatch, dtype=np.float64) -> np.ndarray | None:
+        """The wrapped ``owner_pair_table`` (declared ``owner_rows`` and ``pair_table``)."""
+        return self.potentials.owner_pair_table(batch, dtype)
+
+    def pair_source(self, batch: LocalGameBatch, weights, dtype=np.float64):
+        """The wrapped ``pair_source`` (declared ``pair_source``)."""
+        return self.potentials.pair_source(batch, weights, dtype)
+
+    def pair_on_demand(self, dtype) -> bool:
+        """The wrapped ``pair_on_demand`` (declared ``pair_source``)."""
+        return self.potentials.pair_on_demand(dtype)
+
+    def held_sharing_min(self, dtype) -> int | None:
+        """The wrapped ``held_sharing_min`` (declared ``held_sharing``)."""
+        return self.potentials.held_sharing_min(dtype)
+
+    def neighbourhood(self, batch: LocalGameBatch) -> np.ndarray:
+        """The wrapped neighbourhood term, unchanged (declared ``neighbourhood``)."""
+        return self.potentials.neighbourhood(batch)
+
+    def stage_bytes(self, k: int, a: int, games: int, n: int) -> tuple[float, float, float]:
+        """The wrapped ``stage_bytes`` (declared ``memory``): the cost adds no array."""
+        return self.potentials.stage_bytes(k, a, games, n)

@@ -168,9 +168,9 @@ def stage_memory(
         # The measurement's gathers (int64 indices, values, masks) run beside the table.
         gathers = entries / a * _GATHER_BYTES
         if held_sharing is not None and k >= n and k * a >= held_sharing:
-            from swarmgames.game.stage import _sharing_games
+            from swarmgames.game.stage import sharing_games
 
-            equal = min(n, _sharing_games(1, k * k, a, budget))
+            equal = min(n, sharing_games(1, k * k, a, budget))
             rows = equal * held / a * _HELD_ROW_BYTES
             if equal > games and 2 * per_game * itemsize + rows > table + gathers:
                 games, table, gathers = equal, 2 * per_game * itemsize, rows

@@ -26,6 +26,18 @@ weight), so that
 Padding, invalid actions and masked pairs are set to exactly 0 in both tables; non-finite
 values anywhere else are an error naming the robot, variable and action.
 
+Potentials that declare a neighbourhood term (``capabilities.neighbourhood``) add to the
+owner's unary row a term ψ of the owner (variable 0) over its neighbourhood as a whole,
+
+    U[b, 0, a] += α_a ψ(b, a),
+
+given the owner's next state after action a and the other members' states as the batch
+holds them (their reported states in the solved game, the actual ones in the true game of
+the global regret, the reached ones in the ex-post games). The solvers see it as a unary
+term of the owner: the other members' actions do not enter it (the mean-field solver sees
+it in the owner's field only), so an objective such as "keep at least one neighbour within
+range" is scored against where the others are, not where they will go.
+
 A potential whose pairwise term is cheap to compute from the states may instead hand the
 engine a :class:`PairSource` (the optional ``pair_source`` method): W is then computed per
 game where it is used (inside the compiled mean-field kernel's chunks, and at the profiles
@@ -41,13 +53,19 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
 from swarmgames.arrays import freeze_fields
 from swarmgames.errors import PayoffError
 from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.capabilities import (
+    PairSourceCapabilities,
+    PotentialCapabilities,
+    capabilities_of,
+    pair_source_capabilities,
+)
 from swarmgames.names import PAIR_WEIGHTINGS
 
 __all__ = [
@@ -57,6 +75,7 @@ __all__ = [
     "Potentials",
     "TablePotentials",
     "evaluate_payoffs",
+    "neighbourhood_row",
     "pair_weights",
     "ranked_chunks",
     "shared_tables",
@@ -76,15 +95,19 @@ class Potentials(Protocol):
     Potentials that depend on time (a moving target) read the stage time ``batch.t`` in
     seconds; the states carry no clock.
 
-    Optional cheaper form: a method ``pair_table(batch, dtype) -> (B, K, A, K, A)`` returning
-    the symmetrised table ``φ_p(k, a, l, c) + φ_p(l, c, k, a)`` directly in the solver's
-    layout (in ``dtype``), as a new array that the engine may overwrite, or ``None`` when
-    there is no pairwise term. When present (and
-    the batch has no ``pair_mask``), :func:`evaluate_payoffs` uses it instead of
+    ``capabilities`` (:class:`~swarmgames.game.capabilities.PotentialCapabilities`) declares
+    which of the optional forms below the object offers; the engine reads the declaration
+    (:func:`~swarmgames.game.capabilities.capabilities_of`), never probes for methods.
+
+    Optional cheaper form (``pair_table``): ``pair_table(batch, dtype) -> (B, K, A, K, A)``
+    returning the symmetrised table ``φ_p(k, a, l, c) + φ_p(l, c, k, a)`` directly in the
+    solver's layout (in ``dtype``), as a new array that the engine may overwrite, or
+    ``None`` when there is no pairwise term. When declared (and the batch has no
+    ``pair_mask``), :func:`evaluate_payoffs` uses it instead of
     ``pairwise``: no ``(B, K, K, A, A)`` table, no transposed copies, half the peak memory.
 
-    Optional on-demand form, tried first: ``pair_source(batch, weights, dtype) ->
-    PairSource`` (or ``None`` to fall back to the forms above), the weighted table W
+    Optional on-demand form (``pair_source``), tried first: ``pair_source(batch, weights,
+    dtype) -> PairSource`` (or ``None`` to fall back to the forms above), the weighted table W
     computed per game where it is needed (:class:`PairSource`), with ``weights`` the
     pairwise weight of every game, shape ``(B,)`` (:func:`pair_weights`); the built-in
     coverage potentials offer it for float32 tables. With it, ``pair_on_demand(dtype) ->
@@ -93,13 +116,21 @@ class Potentials(Protocol):
     (:func:`~swarmgames.game.stage.size_groups`), so that games holding the same robots
     fall in one batch and share their tables (``PairSource.shared``).
 
-    Optional owner-only forms: ``owner_unary(batch) -> (B, A)``, φ_u of every game's
-    variable 0 alone, equal to ``unary(batch)[:, 0]`` bit for bit, and
+    Optional owner-only forms (``owner_rows``): ``owner_unary(batch) -> (B, A)``, φ_u of
+    every game's variable 0 alone, equal to ``unary(batch)[:, 0]`` bit for bit, and
     ``owner_pair_table(batch, dtype) -> (B, A, K, A)`` (or ``None``), equal to
     ``pair_table(batch, dtype)[:, 0]`` bit for bit; the global and ex-post regret, which
     read only the owners' rows, use them
     (:func:`~swarmgames.game.equilibrium.owner_payoffs`).
+
+    Optional neighbourhood term (``neighbourhood``): ``neighbourhood(batch) -> (B, A)``, a
+    term ψ of every game's owner (variable 0) over its neighbourhood as a whole, for every
+    action of the owner, given its next state and the other members' states as the batch
+    holds them; :func:`evaluate_payoffs` adds ``α_a ψ`` to the owner's unary row. It lets a
+    mission score what is not a sum over pairs ("keep at least one neighbour in range").
     """
+
+    capabilities: PotentialCapabilities
 
     def unary(self, batch: LocalGameBatch) -> np.ndarray: ...
 
@@ -122,15 +153,19 @@ class PairSource(Protocol):
     ``(B, K, A, K)`` (what the payoff and regret measurements need, without the table);
     ``select(games)`` returns the source of a subset of games.
 
-    Optional: ``at_sums(profile) -> (sums, at_kl)``, ``at(profile).sum(axis=3)`` (B, K, A)
-    and ``at(profile)[b, k, profile[b, k], l]`` (B, K, K), equal to them bit for bit
-    without holding :meth:`at`'s B K² A rows: the payoff and regret measurements use it
+    ``capabilities`` (:class:`~swarmgames.game.capabilities.PairSourceCapabilities`)
+    declares the optional methods below.
+
+    Optional (``at_sums``): ``at_sums(profile) -> (sums, at_kl)``,
+    ``at(profile).sum(axis=3)`` (B, K, A) and ``at(profile)[b, k, profile[b, k], l]``
+    (B, K, K), equal to them bit for bit without holding :meth:`at`'s B K² A rows: the
+    payoff and regret measurements use it
     (:func:`~swarmgames.game.equilibrium.profile_measures`).
 
-    Optional, together: ``shared() -> (head, rank)`` and ``ranked_table(games)``, for
-    batches in which games hold the same variables in another order (a dense swarm, where
-    every game holds every robot). ``rank`` (B, K) int ranks every game's variables
-    canonically (a permutation of ``0 .. K-1``, the valid variables first);
+    Optional, together (``shared``): ``shared() -> (head, rank)`` (or None) and
+    ``ranked_table(games)``, for batches in which games hold the same variables in another
+    order (a dense swarm, where every game holds every robot). ``rank`` (B, K) int ranks
+    every game's variables canonically (a permutation of ``0 .. K-1``, the valid variables first);
     ``ranked_table(games)`` returns ``W[games]`` with the variables in rank order,
     ``T[g, rank[b, k], a, rank[b, l], c] = W[b, k, a, l, c]`` for ``b = games[g]`` (the
     engines only read it, so it may be a view of a table the source holds); ``head``
@@ -141,6 +176,8 @@ class PairSource(Protocol):
     depend on which games share its table.
     """
 
+    capabilities: PairSourceCapabilities
+
     def table(self, games: np.ndarray) -> np.ndarray: ...
 
     def at(self, profile: np.ndarray) -> np.ndarray: ...
@@ -150,10 +187,9 @@ class PairSource(Protocol):
 
 def shared_tables(source) -> tuple[np.ndarray, np.ndarray] | None:
     """``source.shared()``, ``(head, rank)`` as int64 arrays, when ``source`` is a
-    :class:`PairSource` that ranks its games' variables (``shared`` and ``ranked_table``),
-    else None."""
-    fn, ranked = getattr(source, "shared", None), getattr(source, "ranked_table", None)
-    same = fn() if callable(fn) and callable(ranked) else None
+    :class:`PairSource` that ranks its games' variables (declared ``shared``), else None
+    (also for ``source`` None)."""
+    same = source.shared() if source is not None and source.capabilities.shared else None
     if same is None:
         return None
     head, rank = same
@@ -194,6 +230,9 @@ class FunctionPotentials:
     unary_fn: Callable[[np.ndarray], np.ndarray]
     pairwise_fn: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
 
+    #: No optional form.
+    capabilities: ClassVar[PotentialCapabilities] = PotentialCapabilities()
+
     def unary(self, batch: LocalGameBatch) -> np.ndarray:
         """φ_u at every next state, ``(B, K, A)``."""
         return np.asarray(self.unary_fn(batch.next_states))
@@ -225,6 +264,9 @@ class TablePotentials:
 
     unary_table: np.ndarray
     pairwise_table: np.ndarray | None = None
+
+    #: No optional form.
+    capabilities: ClassVar[PotentialCapabilities] = PotentialCapabilities()
 
     def unary(self, batch: LocalGameBatch) -> np.ndarray:
         """The unary table."""
@@ -422,6 +464,7 @@ def evaluate_payoffs(
     dtype = np.dtype(dtype)
     if dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
         raise ValueError(f"dtype must be float64 or float32 (got {dtype})")
+    caps = capabilities_of(potentials)
     _check_empty_actions(batch)
     b, k, a = batch.n_games, batch.n_vars, batch.n_actions
     amask = batch.action_mask
@@ -439,16 +482,18 @@ def evaluate_payoffs(
         )
     unary = np.where(amask, u, 0.0).astype(dtype, copy=False)
     unary = unary * dtype.type(alpha_a)
+    if caps.neighbourhood:
+        unary[:, 0] += neighbourhood_row(batch, potentials, alpha_a, dtype)
 
     pair = source = None
-    table_fn = getattr(potentials, "pair_table", None)
-    source_fn = getattr(potentials, "pair_source", None)
-    if alpha_b > 0 and callable(source_fn) and batch.pair_mask is None:
-        source = source_fn(batch, weights, dtype)
+    if alpha_b > 0 and caps.pair_source and batch.pair_mask is None:
+        source = potentials.pair_source(batch, weights, dtype)
+        if source is not None:
+            pair_source_capabilities(source)
     if source is not None:
         p = None
-    elif alpha_b > 0 and callable(table_fn) and batch.pair_mask is None:
-        pair = weighted_pair_table(batch, table_fn, weights, dtype)
+    elif alpha_b > 0 and caps.pair_table and batch.pair_mask is None:
+        pair = weighted_pair_table(batch, potentials.pair_table, weights, dtype)
         p = None
     else:
         p = potentials.pairwise(batch) if alpha_b > 0 else None
@@ -486,6 +531,38 @@ def evaluate_payoffs(
         members=np.asarray(batch.members),
         pair_source=source,
     )
+
+
+def neighbourhood_row(
+    batch: LocalGameBatch, potentials: Potentials, alpha_a: float, dtype
+) -> np.ndarray:
+    """``α_a ψ`` of the potentials' declared ``neighbourhood(batch)``, shape (B, A) in
+    ``dtype``, 0 at the owner's invalid actions: what :func:`evaluate_payoffs` adds to the
+    owner's unary row (and :func:`~swarmgames.game.equilibrium.owner_payoffs` to the
+    owners' rows alike).
+
+    Raises
+    ------
+    ValueError
+        ψ not of shape (B, A).
+    PayoffError
+        ψ not finite at a valid action of an owner (the message names the robot and action).
+    """
+    dtype = np.dtype(dtype)
+    amask = np.asarray(batch.action_mask)[:, 0]
+    psi = np.asarray(potentials.neighbourhood(batch))
+    if psi.shape != amask.shape:
+        raise ValueError(f"neighbourhood term must have shape {amask.shape} (got {psi.shape})")
+    if not (np.issubdtype(psi.dtype, np.floating) or np.issubdtype(psi.dtype, np.integer)):
+        raise ValueError(f"neighbourhood term must be real numbers (got dtype {psi.dtype})")
+    bad = amask & ~np.isfinite(psi)
+    if bad.any():
+        gb, ga = (int(v) for v in np.argwhere(bad)[0])
+        raise PayoffError(
+            f"neighbourhood term is not finite ({psi[gb, ga]}) for {_where(batch, gb, 0)}, "
+            f"action {ga}"
+        )
+    return np.where(amask, psi, 0.0).astype(dtype, copy=False) * dtype.type(alpha_a)
 
 
 def _check_pair_finite(

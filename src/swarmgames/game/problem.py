@@ -29,6 +29,7 @@ import numpy as np
 
 from swarmgames.arrays import frozen
 from swarmgames.game.actions import ActionModel
+from swarmgames.game.capabilities import capabilities_of
 from swarmgames.game.local import Inbox, broadcast
 from swarmgames.game.potentials import Potentials
 from swarmgames.game.refine import REFINE_METHODS
@@ -99,6 +100,9 @@ class StageProblem:
     ------
     ValueError
         A field out of its range or of the wrong shape, named with the value.
+    TypeError
+        Potentials without a valid ``capabilities`` declaration
+        (:func:`~swarmgames.game.capabilities.capabilities_of`).
 
     Examples
     --------
@@ -161,6 +165,7 @@ class StageProblem:
                 f"refine must be one of {', '.join(map(repr, REFINE_METHODS))} "
                 f"(got {self.refine!r})"
             )
+        capabilities_of(self.potentials)
         object.__setattr__(self, "centralised", bool(self.centralised))
         object.__setattr__(self, "global_regret", bool(self.global_regret))
         object.__setattr__(self, "keep_games", bool(self.keep_games))

@@ -34,6 +34,7 @@ import numpy as np
 from swarmgames.arrays import freeze_fields
 from swarmgames.game.baselines import best_response, exact_profiles, random_profiles
 from swarmgames.game.batch import LocalGameBatch
+from swarmgames.game.capabilities import SolverCapabilities, capabilities_of
 from swarmgames.game.equilibrium import OwnerPayoffs, owner_payoffs
 from swarmgames.game.meanfield import ENGINES, check_parameters, mean_field, resolve_engine
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
@@ -201,10 +202,6 @@ def _pure_solution(name, payoffs, profile, iterations, converged, t0, marginals=
 class Solver(Protocol):
     """What every solver offers (the object :func:`make_solver` returns).
 
-    Optional: ``evaluate_owners(batch, potentials) -> OwnerPayoffs``, the owners' rows of
-    ``evaluate`` bit for bit and cheaper (the built-in solvers have it); the measurements
-    that read only the owners' rows (global and ex-post regret) use it when present.
-
     Attributes
     ----------
     name : str
@@ -215,6 +212,15 @@ class Solver(Protocol):
 
     def evaluate(self, batch: LocalGameBatch, potentials: Potentials) -> GamePayoffs:
         """Weighted payoff tables of ``batch``."""
+        ...
+
+    def evaluate_owners(self, batch: LocalGameBatch, potentials: Potentials) -> OwnerPayoffs:
+        """The owners' rows of :meth:`evaluate`, bit for bit (what the global and ex-post
+        regret read)."""
+        ...
+
+    def capabilities(self, potentials: Potentials) -> SolverCapabilities:
+        """What this solver does with ``potentials`` (read once per stage)."""
         ...
 
     def solve(
@@ -260,6 +266,12 @@ class _Base:
         evaluated where the potentials offer it
         (:func:`~swarmgames.game.equilibrium.owner_payoffs`)."""
         return owner_payoffs(batch, potentials, **self._weights())
+
+    def capabilities(self, potentials: Potentials) -> SolverCapabilities:
+        """What this solver does with ``potentials``: every game's table held, the owner
+        playing its profile's action (the mean-field solver overrides it)."""
+        capabilities_of(potentials)
+        return SolverCapabilities()
 
     def solve(
         self,
@@ -322,29 +334,30 @@ class MeanFieldSolver(_Base):
 
     name = "mean_field"
 
-    def pairs_on_demand(self, potentials: Potentials) -> bool:
-        """Whether this solver computes the pairwise tables of ``potentials`` per chunk of
-        games (the compiled engine, with potentials whose optional
-        ``pair_on_demand(dtype)`` says they give a :class:`~swarmgames.game.potentials.
-        PairSource` in this dtype) instead of holding a batch's: the stage then sizes its
-        batches by the measurements' rows (:func:`~swarmgames.game.stage.size_groups`)."""
-        fn = getattr(potentials, "pair_on_demand", None)
-        if not callable(fn) or self.alpha_b <= 0:
-            return False
-        return resolve_engine(self.engine) == "compiled" and bool(fn(np.dtype(self.dtype)))
+    def capabilities(self, potentials: Potentials) -> SolverCapabilities:
+        """What this solver does with ``potentials``.
 
-    def held_sharing(self, potentials: Potentials) -> int | None:
-        """The smallest game (valid variables × actions) from which the equal games of a
-        batch share one held pairwise table of ``potentials`` (their optional
-        ``held_sharing_min(dtype)``), solved once per group by the compiled engine; None
-        otherwise (another engine builds every game's table). The stage then budgets a
-        batch of such games by its tables, not by its games
-        (:func:`~swarmgames.game.stage.size_groups`)."""
-        fn = getattr(potentials, "held_sharing_min", None)
-        if not callable(fn) or self.alpha_b <= 0 or resolve_engine(self.engine) != "compiled":
-            return None
-        least = fn(np.dtype(self.dtype))
-        return None if least is None else int(least)
+        ``pairs_on_demand``: the compiled engine computes the pairwise tables per chunk of
+        games where the potentials declare ``pair_source`` and their ``pair_on_demand(dtype)``
+        says they give a :class:`~swarmgames.game.potentials.PairSource` in this dtype; the
+        stage then sizes its batches by the measurements' rows
+        (:func:`~swarmgames.game.stage.size_groups`). ``held_sharing_min``: with the
+        compiled engine, the potentials' declared ``held_sharing_min(dtype)``, the smallest
+        game from which the equal games of a batch share one held table, solved once per
+        group; the stage then budgets a batch of such games by its tables. Both need
+        ``alpha_b > 0``. ``samples_actions``: ``action_choice == "sample"``.
+        """
+        caps = capabilities_of(potentials)
+        compiled = self.alpha_b > 0 and resolve_engine(self.engine) == "compiled"
+        dtype = np.dtype(self.dtype)
+        least = potentials.held_sharing_min(dtype) if compiled and caps.held_sharing else None
+        return SolverCapabilities(
+            pairs_on_demand=compiled
+            and caps.pair_source
+            and bool(potentials.pair_on_demand(dtype)),
+            held_sharing_min=None if least is None else int(least),
+            samples_actions=self.action_choice == "sample",
+        )
 
     def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
         """Mean-field marginals of every game, then each owner's action."""

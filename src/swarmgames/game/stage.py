@@ -78,6 +78,7 @@ __all__ = [
     "measure_stage",
     "pair_on_demand",
     "plan_stage",
+    "sharing_games",
     "size_groups",
     "solve",
     "stage_regret",
@@ -216,12 +217,12 @@ def size_groups(
         k2 = int(sizes[g[-1]]) ** 2
         per = max(1, int(max_elems // max(1, k2 * per_var)))
         if shared is not None and not on_demand and np.all(shared[g] >= 0):
-            per = max(per, _sharing_games(sorted_unique(shared[g]).size, k2, n_actions, max_elems))
+            per = max(per, sharing_games(sorted_unique(shared[g]).size, k2, n_actions, max_elems))
         out.extend(np.array_split(g, -(-g.size // per)))
     return out
 
 
-def _sharing_games(d: int, k2: int, n_actions: int, max_elems: int) -> int:
+def sharing_games(d: int, k2: int, n_actions: int, max_elems: int) -> int:
     """The most games ``c`` of a batch with ``min(d, c)`` tables of ``k2 A²`` entries and
     ``c`` rows of ``k2 A`` within ``max_elems``."""
     table, rows = k2 * n_actions**2, k2 * n_actions
@@ -232,10 +233,9 @@ def _sharing_games(d: int, k2: int, n_actions: int, max_elems: int) -> int:
 
 def held_sharing(solver, potentials) -> int | None:
     """The smallest game (valid variables × actions) from which ``solver`` solves the equal
-    games of a batch on one pairwise table that ``potentials`` hold for them (the solver's
-    optional ``held_sharing(potentials)``), or None."""
-    fn = getattr(solver, "held_sharing", None)
-    return fn(potentials) if callable(fn) else None
+    games of a batch on one pairwise table that ``potentials`` hold for them (the
+    ``held_sharing_min`` of ``solver.capabilities(potentials)``), or None."""
+    return solver.capabilities(potentials).held_sharing_min
 
 
 def sharing_labels(messages: Messages, n_actions: int, min_entries: int) -> np.ndarray:
@@ -267,9 +267,9 @@ def sharing_labels(messages: Messages, n_actions: int, min_entries: int) -> np.n
 
 def pair_on_demand(solver, potentials) -> bool:
     """Whether ``solver`` computes the pairwise tables of ``potentials`` per chunk of games
-    instead of holding a batch's (its optional ``pairs_on_demand(potentials)``)."""
-    fn = getattr(solver, "pairs_on_demand", None)
-    return bool(fn(potentials)) if callable(fn) else False
+    instead of holding a batch's (the ``pairs_on_demand`` of
+    ``solver.capabilities(potentials)``)."""
+    return solver.capabilities(potentials).pairs_on_demand
 
 
 class _Record:
@@ -353,13 +353,9 @@ def _true_measures(rec: _Record, problem: StageProblem, messages, groups) -> flo
 
 
 def _owner_rows(solver, batch: LocalGameBatch, potentials: Potentials) -> OwnerPayoffs:
-    """The owners' rows of ``solver.evaluate(batch, potentials)``, bit for bit: the
-    solver's ``evaluate_owners`` where it has one (the built-in solvers), else the whole
-    evaluation's rows."""
-    owners_fn = getattr(solver, "evaluate_owners", None)
-    if callable(owners_fn):
-        return owners_fn(batch, potentials)
-    return OwnerPayoffs.of(solver.evaluate(batch, potentials))
+    """The owners' rows of ``solver.evaluate(batch, potentials)``, bit for bit
+    (``solver.evaluate_owners``)."""
+    return solver.evaluate_owners(batch, potentials)
 
 
 def _expost(rec: _Record, problem: StageProblem, messages, groups, next_states) -> float:
@@ -581,7 +577,7 @@ def _solve_centralised(problem: StageProblem, gen: np.random.Generator) -> Stage
     marginal = sol.marginals[0]
     if ref is not None:
         marginal = _preferring(marginal, actions)
-    elif getattr(solver, "action_choice", "argmax") == "sample":
+    elif solver.capabilities(potentials).samples_actions:
         actions = sample_actions(sol.marginals[0], batch.action_mask[0], actions, gen)
     rec = _Record(n)
     rec.actions[:] = separate_colocated(states, actions, marginal, batch.action_mask[0], gen)

@@ -12,6 +12,10 @@ What is checked
 * ``initial_states``: shape ``(N, state_dim)``, finite, reproducible from a seeded Generator,
   drawing nothing from numpy's global random state;
 * the action model at those states (:func:`~swarmgames.game.checks.check_action_model`);
+* the potentials' declared capabilities (:func:`~swarmgames.game.capabilities.
+  capabilities_of`: a :class:`~swarmgames.game.capabilities.PotentialCapabilities` whose
+  declared forms have their methods) and, when declared, the neighbourhood term: shape
+  ``(B, A)``, real, finite at the owners' valid actions, the same for a sub-batch;
 * the potentials on the local games of a line of robots, with and without virtual means
   (:func:`~swarmgames.game.checks.check_potentials`: shapes, finite values, games that do not
   depend on each other), before and after one stage of random valid actions;
@@ -39,6 +43,7 @@ from typing import Any
 import numpy as np
 
 from swarmgames.game.actions import action_mask_of
+from swarmgames.game.capabilities import capabilities_of
 from swarmgames.game.checks import check_action_model, check_potentials
 from swarmgames.game.local import local_games
 from swarmgames.missions.protocol import RESERVED_COLUMNS
@@ -172,6 +177,9 @@ def check_mission(mission: Any, n_robots: int = 4, seed: int = 0) -> None:
     valid = action_mask_of(model, s0)
     pick = np.array([rng.choice(np.flatnonzero(v)) for v in valid])
     s1 = nxt[np.arange(n_robots), pick]
+    declared = _capability_problems(mission.potentials, snap, (s0, s1), model)
+    if declared:  # the potentials cannot be evaluated without their declaration
+        raise MissionCheckError(label, problems + declared)
     found_before = len(problems)
     for states, when in ((s0, "at the initial states"), (s1, "after one stage")):
         for vm in VIRTUAL_MEANS:
@@ -241,6 +249,44 @@ def _signature_problems(mission: Any, states: np.ndarray) -> dict[str, str]:
         except ValueError:  # no signature to read (a builtin): the call itself will tell
             continue
     return found
+
+
+def _capability_problems(potentials: Any, snap, states_seq, model) -> list[str]:
+    """The potentials' declared capabilities (:func:`~swarmgames.game.capabilities.
+    capabilities_of`) and, when they declare a neighbourhood term, its output on the local
+    games of ``snap`` at each of ``states_seq``: shape (B, A), real, finite at the owners'
+    valid actions, and the same rows for a sub-batch (no game depends on another)."""
+    try:
+        caps = capabilities_of(potentials)
+    except TypeError as exc:
+        return [str(exc)]
+    if not caps.neighbourhood:
+        return []
+    for states in states_seq:
+        batch = local_games(snap, 1, states, model)
+        want = (batch.n_games, batch.n_actions)
+        try:
+            psi = np.asarray(potentials.neighbourhood(batch))
+            half = np.arange(batch.n_games)[::2]
+            part = np.asarray(potentials.neighbourhood(batch.select(half)))
+        except Exception as exc:
+            return [f"potentials.neighbourhood(batch) raised {type(exc).__name__}: {exc}"]
+        if psi.shape != want:
+            return [f"potentials.neighbourhood must return shape {want} (got {psi.shape})"]
+        if not (np.issubdtype(psi.dtype, np.floating) or np.issubdtype(psi.dtype, np.integer)):
+            return [f"potentials.neighbourhood must return real numbers (got dtype {psi.dtype})"]
+        valid = np.asarray(batch.action_mask)[:, 0]
+        if not np.all(np.isfinite(psi[valid])):
+            return ["potentials.neighbourhood returned non-finite values at valid actions"]
+        ok = valid[half]
+        if part.shape != (half.size, want[1]) or not np.allclose(
+            part[ok], psi[half][ok], rtol=1e-9, atol=1e-12
+        ):
+            return [
+                "potentials.neighbourhood of a game depends on the other games of the batch: "
+                "a sub-batch gives different values"
+            ]
+    return []
 
 
 def _optional_hooks(mission: Any, states: np.ndarray, keys: list[str], skip: set[str]) -> list[str]:

@@ -25,11 +25,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field
 
+from swarmgames.game.capabilities import PotentialCapabilities
 from swarmgames.missions.geometry import close_pairs, crowding_blocks, link_components
 from swarmgames.missions.motion import TakeOff, uav_actions
 from swarmgames.missions.registry import MissionEntry
@@ -204,6 +205,9 @@ class FlockingPotentials:
     separation_weight: float = 0.0
     accel_cost: float = 0.0
     alpha_b: float = 0.001
+
+    #: The symmetrised table :meth:`pair_table`.
+    capabilities: ClassVar[PotentialCapabilities] = PotentialCapabilities(pair_table=True)
 
     def __post_init__(self) -> None:
         for name in (

@@ -16,8 +16,10 @@ from scipy.spatial import cKDTree
 
 __all__ = [
     "CROWDING_CHUNK_ELEMS",
+    "CROWDING_COPIES",
     "close_pairs",
     "crowding_blocks",
+    "crowding_bytes",
     "link_components",
     "link_pairs",
 ]
@@ -84,6 +86,16 @@ def close_pairs(positions, distance_m: float) -> int:
 #: Largest (pairs, A, A) penalty block :func:`crowding_blocks` computes at once, entries;
 #: its temporaries hold three times as many values (the coordinate differences).
 CROWDING_CHUNK_ELEMS = 2_000_000
+
+#: float64 temporaries per entry of a :func:`crowding_blocks` block (memory estimates).
+CROWDING_COPIES = 5
+
+
+def crowding_bytes(entries: float) -> float:
+    """Working memory of :func:`crowding_blocks` over pairwise tables of ``entries``
+    entries, bytes: its largest block's float64 temporaries (for the memory estimates of
+    :func:`~swarmgames.sim.memory.estimate_memory`)."""
+    return min(entries, CROWDING_CHUNK_ELEMS) * 8.0 * CROWDING_COPIES
 
 
 def crowding_blocks(

@@ -54,12 +54,13 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field
 
 from swarmgames.errors import ConfigError
+from swarmgames.game.capabilities import PotentialCapabilities
 from swarmgames.game.inertia import Inertia
 from swarmgames.missions.geometry import link_components, link_pairs
 from swarmgames.missions.motion import TakeOff, uav_actions
@@ -180,6 +181,9 @@ class RendezvousPotentials:
     link_weight: float = 50.0
     goal_weight: float = 1.0
     alpha_b: float = 0.001
+
+    #: The symmetrised table :meth:`pair_table`.
+    capabilities: ClassVar[PotentialCapabilities] = PotentialCapabilities(pair_table=True)
 
     def __post_init__(self) -> None:
         for name in ("link_margin_db", "link_weight", "goal_weight", "alpha_b"):

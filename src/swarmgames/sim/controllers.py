@@ -31,7 +31,7 @@ from typing import Protocol
 import numpy as np
 
 from swarmgames.errors import ConfigError
-from swarmgames.game import Solver, make_solver
+from swarmgames.game import Solver, capabilities_of, make_solver
 from swarmgames.game.problem import StageProblem
 from swarmgames.game.stage import StageSolution, measure_expost, measure_stage, solve
 from swarmgames.names import CONTROLLERS
@@ -109,6 +109,7 @@ class _Controller:
 
     def __init__(self, config, mission) -> None:
         self.mission = mission
+        capabilities_of(mission.potentials)  # a plug-in must declare its optional forms
         self.hops = int(config.network.hops)
         self.buckets = int(config.game.buckets)
         self.solver_name = config.game.solver

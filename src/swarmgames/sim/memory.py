@@ -38,6 +38,7 @@ import math
 import os
 
 from swarmgames.errors import ConfigError
+from swarmgames.game.capabilities import capabilities_of
 from swarmgames.game.memory import GIB, MemoryEstimate, stage_memory
 
 __all__ = [
@@ -59,11 +60,6 @@ _OLSR_KEPT, _OLSR_PEAK = 16.0, 80.0
 
 #: Share of the available memory a run may plan to use when ``sim.memory_limit_gib`` is unset.
 AVAILABLE_SHARE = 0.8
-
-#: The coverage integral's float32 temporaries per chunk entry, the crowding penalty's
-#: float64 temporaries per block entry (at most CROWDING_CHUNK_ELEMS entries) and the pair
-#: table's float64 temporaries per entry of its blocks (a quarter of the chunk).
-_UNARY_COPIES, _CROWDING_COPIES, _PAIR_COPIES = 5, 5, 4
 
 
 class MemoryLimitError(ConfigError):
@@ -172,55 +168,16 @@ def _one_hop_size(config, mission) -> int:
 
 def _potentials_bytes(mission, k: int, a: int, games: int, n: int) -> tuple[float, float, float]:
     """Working memory of the mission's potentials for one batch, ``(unary, owner_unary,
-    pairwise)`` bytes: the coverage integral's chunks and its crowding blocks (the unary of
-    the stage's games, before their table exists), the owners' rows of the ex-post and
-    global regret (beside a table) and the pairwise blocks; for other potentials one more
-    pairwise table beside the table."""
-    from swarmgames.missions.coverage.potentials import _KEPT_FIELD_BYTES, CoveragePotentials
-    from swarmgames.missions.geometry import CROWDING_CHUNK_ELEMS
+    pairwise)`` bytes: what the potentials declare (``capabilities.memory``:
+    ``stage_bytes(k, a, games, n)``); for others one more pairwise table beside the table
+    and a crowding block."""
+    from swarmgames.missions.geometry import crowding_bytes
 
-    pot = getattr(mission, "potentials", None)
-    pot = getattr(pot, "potentials", pot)  # inside Inertia
+    pot = mission.potentials
+    if capabilities_of(pot).memory:
+        return pot.stage_bytes(k, a, games, n)
     entries = float(games) * k * k * a * a
-    crowding = min(entries, CROWDING_CHUNK_ELEMS) * 8.0 * _CROWDING_COPIES
-    if not isinstance(pot, CoveragePotentials):
-        return 0.0, 0.0, entries * 8.0 + crowding
-    g = pot.roi.n_cells
-    chunk = float(pot.chunk_elems)
-    if pot.signal_floor_dbm is not None:
-        # The windowed integral: each variable's disc of cells within the floor's reach
-        # (plus the move and the window's margin), not the whole ROI.
-        from swarmgames.missions.coverage.window import floor_distance_sq
-
-        reach = math.sqrt(floor_distance_sq(pot.signal, pot.signal_floor_dbm))
-        g = min(g, int(math.pi * (reach / pot.roi.cell_m + 3.0) ** 2))
-        fields = min(games * k, n) * (a + 1) * float(g)
-        block = min(float(games) * k * a * g, max(chunk, float(a * g)))
-        best = 2.0 * min(float(games), max(1.0, chunk / max(1, k * a * g))) * k * g
-        unary = 4.0 * (_UNARY_COPIES * block + fields + best)
-        owner = 0.0
-        if pot.kernel != "numpy":
-            # The compiled kernel's table of states' signals kept across batches: at most
-            # signal_table_elems values, two states per id (2 N + 2 ids).
-            unary += 4.0 * min(float(pot.signal_table_elems), 2.0 * (2 * n + 2) * a * g)
-    else:
-        # The whole grid. Games that hold every robot (K = N) hold the same states under
-        # exact delivery and are integrated once; the others each (in chunks). The owners'
-        # rows (ex-post and global regret) take chunks of games of (1, A, G) values and
-        # (K, G) current signals, from the positions' fields (kept ones gathered by position),
-        # and the last field (up to _KEPT_FIELD_BYTES) is kept from one batch to the next.
-        distinct = 1 if k >= n else games
-        fields = min(games * k, n) * (a + 1) * float(g)
-        block = min(float(distinct) * k * a * g, max(chunk, float(a * g)))
-        best = 2.0 * min(float(distinct), max(1.0, chunk // max(1, k * a * g))) * k * g
-        kept = min(4.0 * fields, float(_KEPT_FIELD_BYTES))
-        unary = 4.0 * (_UNARY_COPIES * block + fields + best) + kept
-        rows = min(float(games), max(1.0, chunk // max(1, max(a, k) * g)))
-        owner = 4.0 * (_UNARY_COPIES * rows * a * g + 2.0 * rows * k * g + fields) + kept
-    pair = 8.0 * _PAIR_COPIES * min(entries, max(pot.chunk_elems / 4, k * a))
-    if pot.separation_m > 0 and pot.separation_cost_db > 0:
-        pair += crowding
-    return unary, owner, pair
+    return 0.0, 0.0, entries * 8.0 + crowding_bytes(entries)
 
 
 def _pairs_on_demand(config, mission) -> bool:
@@ -228,8 +185,7 @@ def _pairs_on_demand(config, mission) -> bool:
     from swarmgames.game.stage import pair_on_demand
     from swarmgames.sim.controllers import solver_from_config
 
-    pot = getattr(mission, "potentials", None)
-    return pot is not None and pair_on_demand(solver_from_config(config.game), pot)
+    return pair_on_demand(solver_from_config(config.game), mission.potentials)
 
 
 def _held_sharing(config, mission) -> int | None:
@@ -237,8 +193,7 @@ def _held_sharing(config, mission) -> int | None:
     from swarmgames.game.stage import held_sharing
     from swarmgames.sim.controllers import solver_from_config
 
-    pot = getattr(mission, "potentials", None)
-    return None if pot is None else held_sharing(solver_from_config(config.game), pot)
+    return held_sharing(solver_from_config(config.game), mission.potentials)
 
 
 def estimate_memory(config, mission=None, *, whole_run: bool = True) -> MemoryEstimate:

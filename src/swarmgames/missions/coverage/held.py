@@ -19,10 +19,12 @@ which changes their last bits. The potentials use it only for games of at least
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from numba import njit, prange
 
+from swarmgames.game.capabilities import PairSourceCapabilities
 from swarmgames.game.meanfield_compiled import in_parallel, pool
 
 __all__ = ["HELD_SHARE_MIN", "HeldPairs"]
@@ -56,6 +58,9 @@ class HeldPairs:
     var: np.ndarray
     mask: np.ndarray
     table_valid: np.ndarray
+
+    #: ``shared`` and ``ranked_table``.
+    capabilities: ClassVar[PairSourceCapabilities] = PairSourceCapabilities(shared=True)
 
     def table(self, games: np.ndarray) -> np.ndarray:
         """W of ``games`` in their own order, (G, K, A, K, A), a new array."""

@@ -47,12 +47,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from functools import cached_property
+from typing import ClassVar
 
 import numpy as np
 from llvmlite import ir
 from numba import njit, prange, types
 from numba.extending import intrinsic
 
+from swarmgames.game.capabilities import PairSourceCapabilities
 from swarmgames.game.meanfield_compiled import PARALLEL_MIN_GAMES, in_parallel, pool
 from swarmgames.missions.coverage.distinct import DistinctGames, distinct_games
 from swarmgames.missions.coverage.signal import SignalModel
@@ -673,6 +675,11 @@ class CoveragePairs:
     weight: np.ndarray
     ids: np.ndarray | None = None
     repeats: DistinctGames | None = None
+
+    #: ``at_sums``, ``shared`` and ``ranked_table``.
+    capabilities: ClassVar[PairSourceCapabilities] = PairSourceCapabilities(
+        at_sums=True, shared=True
+    )
 
     def _consts(self):
         return (self.scale, self.offset, self.d02, self.inv_sep, self.crowd, self.weight)

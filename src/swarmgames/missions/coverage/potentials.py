@@ -69,11 +69,14 @@ References
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
+from swarmgames.game.capabilities import PotentialCapabilities
 from swarmgames.missions.coverage.distinct import CarriedGame, distinct_games
 from swarmgames.missions.coverage.roi import GaussianROI
 from swarmgames.missions.coverage.signal import SignalModel
@@ -83,12 +86,16 @@ from swarmgames.missions.coverage.window import (
     max_move,
     windowed_unary,
 )
-from swarmgames.missions.geometry import crowding_blocks
+from swarmgames.missions.geometry import crowding_blocks, crowding_bytes
 
 __all__ = ["KERNELS", "CoveragePotentials"]
 
 #: Values of ``CoveragePotentials(kernel=...)`` (``coverage.kernel``).
 KERNELS = ("auto", "compiled", "numpy")
+
+#: The integral's float32 temporaries per chunk entry and the pair table's float64
+#: temporaries per entry of its blocks (a quarter of the chunk), for :meth:`stage_bytes`.
+_UNARY_COPIES, _PAIR_COPIES = 5, 4
 
 
 def _run_chunks(fn, starts, workers: int) -> None:
@@ -217,6 +224,10 @@ class CoveragePotentials:
     kernel: str = "auto"
     signal_table_elems: int = 96_000_000
     last_integrate_s: float = field(default=0.0, init=False)
+    #: Every optional form but the neighbourhood term.
+    capabilities: ClassVar[PotentialCapabilities] = PotentialCapabilities(
+        pair_table=True, pair_source=True, owner_rows=True, held_sharing=True, memory=True
+    )
     _raster: RoiRaster | None = field(default=None, init=False, repr=False)
     _last_fields: tuple | None = field(default=None, init=False, repr=False)
     _last_repeats: tuple | None = field(default=None, init=False, repr=False)
@@ -580,6 +591,50 @@ class CoveragePotentials:
                 )
                 out[lo:hi, k0:k1] = np.where(ok, val, 0.0)
         return out
+
+    def stage_bytes(self, k: int, a: int, games: int, n: int) -> tuple[float, float, float]:
+        """Working memory of evaluating one batch of ``games`` games of ``k`` variables and
+        ``a`` actions in a swarm of ``n`` robots, ``(unary, owner_unary, pairwise)`` bytes
+        (:func:`~swarmgames.sim.memory.estimate_memory`): the integral's chunks and its
+        crowding blocks (the unary of the stage's games, before their table exists), the
+        owners' rows of the ex-post and global regret (beside a table) and the pairwise
+        blocks."""
+        entries = float(games) * k * k * a * a
+        g = self.roi.n_cells
+        chunk = float(self.chunk_elems)
+        if self.signal_floor_dbm is not None:
+            # The windowed integral: each variable's disc of cells within the floor's reach
+            # (plus the move and the window's margin), not the whole ROI.
+            reach = math.sqrt(floor_distance_sq(self.signal, self.signal_floor_dbm))
+            g = min(g, int(math.pi * (reach / self.roi.cell_m + 3.0) ** 2))
+            fields = min(games * k, n) * (a + 1) * float(g)
+            block = min(float(games) * k * a * g, max(chunk, float(a * g)))
+            best = 2.0 * min(float(games), max(1.0, chunk / max(1, k * a * g))) * k * g
+            unary = 4.0 * (_UNARY_COPIES * block + fields + best)
+            owner = 0.0
+            if self.kernel != "numpy":
+                # The compiled kernel's table of states' signals kept across batches: at
+                # most signal_table_elems values, two states per id (2 N + 2 ids).
+                unary += 4.0 * min(float(self.signal_table_elems), 2.0 * (2 * n + 2) * a * g)
+        else:
+            # The whole grid. Games that hold every robot (K = N) hold the same states under
+            # exact delivery and are integrated once; the others each (in chunks). The
+            # owners' rows (ex-post and global regret) take chunks of games of (1, A, G)
+            # values and (K, G) current signals, from the positions' fields (kept ones
+            # gathered by position), and the last field (up to _KEPT_FIELD_BYTES) is kept
+            # from one batch to the next.
+            distinct = 1 if k >= n else games
+            fields = min(games * k, n) * (a + 1) * float(g)
+            block = min(float(distinct) * k * a * g, max(chunk, float(a * g)))
+            best = 2.0 * min(float(distinct), max(1.0, chunk // max(1, k * a * g))) * k * g
+            kept = min(4.0 * fields, float(_KEPT_FIELD_BYTES))
+            unary = 4.0 * (_UNARY_COPIES * block + fields + best) + kept
+            rows = min(float(games), max(1.0, chunk // max(1, max(a, k) * g)))
+            owner = 4.0 * (_UNARY_COPIES * rows * a * g + 2.0 * rows * k * g + fields) + kept
+        pair = 8.0 * _PAIR_COPIES * min(entries, max(self.chunk_elems / 4, k * a))
+        if self.separation_m > 0 and self.separation_cost_db > 0:
+            pair += crowding_bytes(entries)
+        return unary, owner, pair
 
     def pair_on_demand(self, dtype) -> bool:
         """Whether :meth:`pair_source` gives a source for tables of ``dtype`` (float32 with
