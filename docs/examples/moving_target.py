@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydantic import Field
 
+from swarmgames.game import PotentialCapabilities
 from swarmgames.missions import HeadingActions, MissionEntry, TakeOff
 from swarmgames.section import Coordinate, Section
 
@@ -56,6 +57,8 @@ class MovingTargetPotentials:
     """phi_u = -|S_k(x_k) - p(t + lead)|, the horizontal distance of the next position to
     where the target will be when the robot gets there (lead = the control period);
     phi_p = -w max(0, 1 - |S_k(x_k) - S_l(x_l)| / separation)^2 / alpha_b (crowding)."""
+
+    capabilities = PotentialCapabilities()  # unary and pairwise only: no optional forms
 
     path: CirclePath
     lead_s: float

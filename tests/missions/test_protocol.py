@@ -537,6 +537,8 @@ def test_check_mission_names_a_metrics_hook_without_the_stage_time():
 class _Clock:
     """A unary that reads the stage time: finite up to ``limit_s``, NaN after."""
 
+    capabilities = PotentialCapabilities()
+
     def __init__(self, limit_s):
         self.limit_s = limit_s
 
@@ -578,3 +580,16 @@ def test_check_mission_evaluates_the_potentials_at_a_later_stage_time():
     assert first.startswith("potentials at stage time t = 10 s:"), first
     assert second.startswith("potentials at stage time t = 250 s:"), second
     assert "unary potential is not finite" in first
+
+
+def test_a_run_refuses_undeclared_potentials_in_one_line():
+    # A plug-in whose potentials do not declare their capabilities is a usage error naming
+    # the mission, not a TypeError from inside the stage (docs/game.md, the Potentials
+    # contract).
+    from swarmgames.config import ScenarioConfig
+    from swarmgames.errors import ConfigError
+    from swarmgames.sim.controllers import make_controller
+
+    mission = GoalMission(potentials=_Undeclared())
+    with pytest.raises(ConfigError, match=r"^mission 'goal': potentials must declare"):
+        make_controller(ScenarioConfig(), mission)

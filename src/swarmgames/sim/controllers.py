@@ -109,7 +109,10 @@ class _Controller:
 
     def __init__(self, config, mission) -> None:
         self.mission = mission
-        capabilities_of(mission.potentials)  # a plug-in must declare its optional forms
+        try:  # a plug-in's potentials must declare their optional forms
+            capabilities_of(mission.potentials)
+        except TypeError as exc:
+            raise ConfigError(f"mission {mission.name!r}: {exc}") from None
         self.hops = int(config.network.hops)
         self.buckets = int(config.game.buckets)
         self.solver_name = config.game.solver
