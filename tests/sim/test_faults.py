@@ -58,9 +58,9 @@ def test_the_expost_regret_is_measured_against_where_a_crashed_robot_stays(monke
     seen = []
     measure = GameController.expost_regret
 
-    def spy(self, snapshot, states, actions, next_states):
-        seen.append((np.array(states), np.array(next_states)))
-        return measure(self, snapshot, states, actions, next_states)
+    def spy(self, problem, actions, next_states):
+        seen.append((np.array(problem.states), np.array(next_states)))
+        return measure(self, problem, actions, next_states)
 
     monkeypatch.setattr(GameController, "expost_regret", spy)
     res = run(_cfg({"crash": [[15.0, 2]]}, duration=12.0), progress=False)

@@ -32,7 +32,6 @@ from typing import Any
 import numpy as np
 
 from swarmgames.arrays import freeze_fields
-from swarmgames.errors import PayoffError
 from swarmgames.game.batch import LocalGameBatch
 from swarmgames.game.capabilities import PotentialCapabilities, capabilities_of
 from swarmgames.game.potentials import (
@@ -40,6 +39,7 @@ from swarmgames.game.potentials import (
     Potentials,
     evaluate_payoffs,
     neighbourhood_row,
+    owner_row,
     pair_weights,
     weighted_owner_rows,
 )
@@ -352,19 +352,9 @@ def owner_payoffs(
     if rows is None:
         pay = evaluate_payoffs(batch, _PairOnly(potentials, caps), alpha_a, alpha_b, **kw)
         rows = OwnerPayoffs.of(pay)
-    amask = np.asarray(batch.action_mask)[:, 0]
-    u = np.asarray(potentials.owner_unary(batch))
-    if u.shape != amask.shape:
-        raise ValueError(f"owner_unary must have shape {amask.shape} (got {u.shape})")
-    bad = amask & ~np.isfinite(u)
-    if bad.any():
-        gb, ga = (int(v) for v in np.argwhere(bad)[0])
-        raise PayoffError(
-            f"unary potential is not finite ({u[gb, ga]}) for the local game of robot "
-            f"{int(batch.owner[gb])} (game {gb}), variable 0, action {ga}"
-        )
     dt = np.dtype(dtype)
-    unary = np.where(amask, u, 0.0).astype(dt, copy=False) * dt.type(alpha_a)
+    owner_u = potentials.owner_unary(batch)
+    unary = owner_row(owner_u, batch, "owner unary potential", alpha_a, dt)
     if caps.neighbourhood:
         unary += neighbourhood_row(batch, potentials, alpha_a, dt)
     return OwnerPayoffs(

@@ -76,6 +76,7 @@ __all__ = [
     "TablePotentials",
     "evaluate_payoffs",
     "neighbourhood_row",
+    "owner_row",
     "pair_weights",
     "ranked_chunks",
     "shared_tables",
@@ -533,36 +534,43 @@ def evaluate_payoffs(
     )
 
 
-def neighbourhood_row(
-    batch: LocalGameBatch, potentials: Potentials, alpha_a: float, dtype
-) -> np.ndarray:
-    """``α_a ψ`` of the potentials' declared ``neighbourhood(batch)``, shape (B, A) in
-    ``dtype``, 0 at the owner's invalid actions: what :func:`evaluate_payoffs` adds to the
-    owner's unary row (and :func:`~swarmgames.game.equilibrium.owner_payoffs` to the
-    owners' rows alike).
+def owner_row(values, batch: LocalGameBatch, what: str, weight: float, dtype) -> np.ndarray:
+    """``weight × values``, a term of every game's owner (variable 0) for each of its actions,
+    shape (B, A) in ``dtype``, 0 at the owner's invalid actions (values there are ignored).
 
     Raises
     ------
     ValueError
-        ψ not of shape (B, A).
+        ``values`` not of shape (B, A), or not real numbers (``what`` names the term).
     PayoffError
-        ψ not finite at a valid action of an owner (the message names the robot and action).
+        A value not finite at a valid action of an owner (the message names the robot and
+        the action).
     """
     dtype = np.dtype(dtype)
     amask = np.asarray(batch.action_mask)[:, 0]
-    psi = np.asarray(potentials.neighbourhood(batch))
-    if psi.shape != amask.shape:
-        raise ValueError(f"neighbourhood term must have shape {amask.shape} (got {psi.shape})")
-    if not (np.issubdtype(psi.dtype, np.floating) or np.issubdtype(psi.dtype, np.integer)):
-        raise ValueError(f"neighbourhood term must be real numbers (got dtype {psi.dtype})")
-    bad = amask & ~np.isfinite(psi)
+    values = np.asarray(values)
+    if values.shape != amask.shape:
+        raise ValueError(f"{what} must have shape {amask.shape} (got {values.shape})")
+    if not (np.issubdtype(values.dtype, np.floating) or np.issubdtype(values.dtype, np.integer)):
+        raise ValueError(f"{what} must be real numbers (got dtype {values.dtype})")
+    bad = amask & ~np.isfinite(values)
     if bad.any():
         gb, ga = (int(v) for v in np.argwhere(bad)[0])
         raise PayoffError(
-            f"neighbourhood term is not finite ({psi[gb, ga]}) for {_where(batch, gb, 0)}, "
-            f"action {ga}"
+            f"{what} is not finite ({values[gb, ga]}) for {_where(batch, gb, 0)}, action {ga}"
         )
-    return np.where(amask, psi, 0.0).astype(dtype, copy=False) * dtype.type(alpha_a)
+    return np.where(amask, values, 0.0).astype(dtype, copy=False) * dtype.type(weight)
+
+
+def neighbourhood_row(
+    batch: LocalGameBatch, potentials: Potentials, alpha_a: float, dtype
+) -> np.ndarray:
+    """``α_a ψ`` of the potentials' declared ``neighbourhood(batch)``, shape (B, A) in
+    ``dtype``, 0 at the owner's invalid actions (:func:`owner_row`): what
+    :func:`evaluate_payoffs` adds to the owner's unary row (and
+    :func:`~swarmgames.game.equilibrium.owner_payoffs` to the owners' rows alike)."""
+    psi = potentials.neighbourhood(batch)
+    return owner_row(psi, batch, "neighbourhood term", alpha_a, dtype)
 
 
 def _check_pair_finite(
