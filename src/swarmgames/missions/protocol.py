@@ -41,8 +41,10 @@ configuration is checked without building the mission.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Protocol, runtime_checkable
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -59,6 +61,7 @@ __all__ = [
     "TRAJECTORY_COLUMNS",
     "Baseline",
     "Mission",
+    "MissionHooks",
 ]
 
 #: Columns the simulation writes itself, in file order: trajectory.csv; metrics.csv (a
@@ -121,6 +124,46 @@ OPTIONAL_HOOKS = ("robot_metrics", "summary", "draw", "extent", "baselines")
 #: ``(N, D)`` to every robot's action index ``(N,)``, an integer array of valid actions of the
 #: mission's ``action_model``. It sees every robot's state: a centralised reference.
 Baseline = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True, eq=False)
+class MissionHooks:
+    """The optional hooks a mission offers (:data:`OPTIONAL_HOOKS`), read once.
+
+    Each field is the mission's own hook, or None where it has none (``baselines``: an empty
+    mapping). :meth:`of` is the one place the simulation reads a mission's optional hooks;
+    :func:`~swarmgames.missions.conformance.check_mission` checks what they return.
+
+    Attributes
+    ----------
+    robot_metrics : callable ``(states (N, D), t) -> {name: (N,) array}`` or None
+    summary : callable ``(times (S,), swarm {name: (S,) array}) -> {name: value}`` or None
+    draw : callable ``(ax) -> None`` or None
+    extent : callable ``() -> (xmin, xmax, ymin, ymax)`` or None
+    baselines : mapping of str to Baseline (read-only)
+    """
+
+    robot_metrics: Callable[..., Mapping[str, np.ndarray]] | None = None
+    summary: Callable[..., Mapping[str, Any]] | None = None
+    draw: Callable[[Any], None] | None = None
+    extent: Callable[[], tuple[float, float, float, float]] | None = None
+    baselines: Mapping[str, Baseline] = field(default_factory=lambda: MappingProxyType({}))
+
+    @classmethod
+    def of(cls, mission: Any) -> MissionHooks:
+        """The hooks ``mission`` offers.
+
+        Examples
+        --------
+        >>> from swarmgames.missions import get_mission
+        >>> from swarmgames.config import ScenarioConfig
+        >>> hooks = MissionHooks.of(get_mission("coverage").build(ScenarioConfig()))
+        >>> sorted(hooks.baselines), hooks.draw is not None
+        (['lloyd'], True)
+        """
+        found = {name: getattr(mission, name, None) for name in OPTIONAL_HOOKS}
+        baselines = MappingProxyType(dict(found.pop("baselines") or {}))
+        return cls(**found, baselines=baselines)
 
 
 @runtime_checkable

@@ -17,6 +17,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from swarmgames.missions.protocol import MissionHooks
 from swarmgames.sim.plots import DENSE_ROBOTS, draw_background, link_lines, link_segments
 
 __all__ = ["FrameDrawer", "draw_frame", "render_gif"]
@@ -78,7 +79,7 @@ def _bounds(mission, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     margin."""
     pts = np.asarray(xy, dtype=float).reshape(-1, 2)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
-    extent = getattr(mission, "extent", None)
+    extent = MissionHooks.of(mission).extent
     if extent is not None:  # keep the mission's area in view too
         box = np.asarray(extent(), dtype=float)
         lo, hi = np.minimum(lo, box[::2]), np.maximum(hi, box[1::2])

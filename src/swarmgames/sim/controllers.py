@@ -34,6 +34,7 @@ from swarmgames.errors import ConfigError
 from swarmgames.game import Solver, capabilities_of, make_solver
 from swarmgames.game.problem import StageProblem
 from swarmgames.game.stage import StageSolution, measure_expost, measure_stage, solve
+from swarmgames.missions.protocol import MissionHooks
 from swarmgames.names import CONTROLLERS
 
 __all__ = [
@@ -204,7 +205,7 @@ class BaselineController(_Controller):
 
     def __init__(self, config, mission, name: str) -> None:
         super().__init__(config, mission)
-        offered = getattr(mission, "baselines", {})  # an optional hook, read once
+        offered = MissionHooks.of(mission).baselines
         if name not in offered:
             have = ", ".join(map(repr, offered)) or "none"
             raise ConfigError(

@@ -37,6 +37,7 @@ from scipy.sparse import csgraph, csr_array
 
 from swarmgames.arrays import freeze_fields
 from swarmgames.errors import ChannelOverloadWarning, PayoffError
+from swarmgames.missions.protocol import MissionHooks
 from swarmgames.network.hops import hop_statistics
 from swarmgames.sim.signals import deferred_interrupts, raise_if_signalled
 from swarmgames.topology import TopologySnapshot
@@ -381,7 +382,7 @@ class StageLoop:
             comms = IdealComms(controller.hops)
         self.comms = comms
         self.faults = faults
-        self._robot_metrics = getattr(mission, "robot_metrics", None)
+        self._robot_metrics = MissionHooks.of(mission).robot_metrics
         self._control = getattr(provider, "control_traffic", None)  # OLSR's own messages
         self.stage = 0
         self.states: np.ndarray | None = None

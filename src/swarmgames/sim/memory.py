@@ -40,6 +40,7 @@ import os
 from swarmgames.errors import ConfigError
 from swarmgames.game.capabilities import capabilities_of
 from swarmgames.game.memory import GIB, MemoryEstimate, stage_memory
+from swarmgames.missions.protocol import MissionHooks
 
 __all__ = [
     "INTERPRETER_BYTES",
@@ -145,8 +146,8 @@ def neighbourhood_size(config, mission=None) -> int:
 
         takeoff = TakeOff.of(config.swarm)
     densest = float(takeoff.radius_m)
-    extent = getattr(mission, "extent", None)
-    if callable(extent):
+    extent = MissionHooks.of(mission).extent
+    if extent is not None:
         x0, x1, y0, y1 = (float(v) for v in extent())
         region = 0.5 * math.sqrt(max(x1 - x0, 0.0) * max(y1 - y0, 0.0))
         # The swarm can close in on the region by at most its speed times the mission.

@@ -12,6 +12,7 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
 from swarmgames.labels import column_label
+from swarmgames.missions.protocol import MissionHooks
 from swarmgames.sim.result import NETWORK_COLUMNS
 
 __all__ = [
@@ -71,7 +72,7 @@ def mission_columns(result) -> list[str]:
 
 def draw_background(ax, mission) -> None:
     """The mission's background (its ``draw`` hook), if it has one."""
-    draw = getattr(mission, "draw", None)
+    draw = MissionHooks.of(mission).draw
     if draw is not None:
         draw(ax)
 

@@ -8,7 +8,12 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-from swarmgames.missions.protocol import METRICS_COLUMNS, NETWORK_COLUMNS, TRAJECTORY_COLUMNS
+from swarmgames.missions.protocol import (
+    METRICS_COLUMNS,
+    NETWORK_COLUMNS,
+    TRAJECTORY_COLUMNS,
+    MissionHooks,
+)
 
 __all__ = [
     "METRICS_COLUMNS",
@@ -97,7 +102,7 @@ def summarise(log, config, mission, wall_s: float) -> dict[str, Any]:
 
     mp = sw.get("mean_payoff", np.zeros(0))
     p0, p1 = (float(mp[0]), float(mp[-1])) if len(mp) else (None, None)
-    summary_hook = getattr(mission, "summary", None)
+    summary_hook = MissionHooks.of(mission).summary
     own = dict(summary_hook(log.times, dict(sw))) if summary_hook is not None else {}
     osc = sw.get("oscillation", np.zeros(0))
     lr = pr.get("local_regret", np.zeros((0, n)))
