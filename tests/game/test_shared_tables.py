@@ -17,7 +17,7 @@ from swarmgames.game import FunctionPotentials, evaluate_payoffs, make_solver, m
 from swarmgames.game.capabilities import PairSourceCapabilities
 from swarmgames.game.memory import stage_memory
 from swarmgames.game.potentials import GamePayoffs, PairSource
-from swarmgames.game.stage import pair_on_demand, size_groups
+from swarmgames.game.stage import size_groups
 from tests.game.helpers import random_games
 
 
@@ -236,8 +236,17 @@ def _dense_default_stage(monkeypatch, share: bool):
         return out
 
     monkeypatch.setattr(stage, "size_groups", sized)
-    if not share:
-        monkeypatch.setattr(stage, "held_sharing", lambda *_: None)
+    if not share:  # the solver declares no held sharing
+        from dataclasses import replace
+
+        from swarmgames.game.solvers import MeanFieldSolver
+
+        declared = MeanFieldSolver.capabilities
+        monkeypatch.setattr(
+            MeanFieldSolver,
+            "capabilities",
+            lambda self, pot: replace(declared(self, pot), held_sharing_min=None),
+        )
     cfg = resolve_scenario("coverage", ["swarm.n_robots=40", "swarm.start_max_neighbours=0"])
     sb = StageBench(40, config=cfg, seed=3)
     sb.controller.global_regret = True
@@ -259,9 +268,16 @@ def test_equal_held_games_batched_by_their_table_give_the_same_stage(monkeypatch
     assert np.all(np.isfinite(shared.global_regret)) and np.all(np.isfinite(shared.expost_regret))
 
 
+def held_sharing(solver, potentials):
+    return solver.capabilities(potentials).held_sharing_min
+
+
+def pair_on_demand(solver, potentials):
+    return solver.capabilities(potentials).pairs_on_demand
+
+
 def test_which_solvers_solve_equal_held_games_on_one_table():
     from swarmgames.config import parse_config
-    from swarmgames.game.stage import held_sharing
     from swarmgames.missions.coverage.held import HELD_SHARE_MIN
     from swarmgames.missions.coverage.mission import build
 

@@ -135,10 +135,10 @@ def stage_memory(
         The stage's batch budget (default :data:`~swarmgames.game.stage.MAX_PAIR_ELEMS`).
     pair_on_demand : bool, default False
         The solver computes the pairwise tables per chunk of games
-        (:func:`~swarmgames.game.stage.pair_on_demand`).
+        (``pairs_on_demand`` of the solver's capabilities).
     held_sharing : int, optional
         The smallest game (K A entries) whose equal copies in a batch share one held table
-        (:func:`~swarmgames.game.stage.held_sharing`). When every game holds every robot
+        (``held_sharing_min`` of the solver's capabilities). When every game holds every robot
         (K = N) and is this large, its games are equal and batched by their one table
         (:func:`~swarmgames.game.stage.size_groups`), so the estimate is the larger of a
         batch of distinct games and one of equal games (one table, its weighted copy and

@@ -76,7 +76,6 @@ __all__ = [
     "evaluate_games",
     "measure_expost",
     "measure_stage",
-    "pair_on_demand",
     "plan_stage",
     "sharing_games",
     "size_groups",
@@ -187,7 +186,8 @@ def size_groups(
     (0 = automatic: one per 128 robots, at most 8); a group whose pairwise table
     (``count × K_max² × A²`` entries) would exceed ``max_elems`` is split further, so the
     memory of a stage stays bounded however large the swarm. With ``on_demand`` (the solver
-    computes the tables per chunk of games, :func:`pair_on_demand`) a batch holds no table,
+    computes the tables per chunk of games: ``pairs_on_demand`` of its
+    :class:`~swarmgames.game.capabilities.SolverCapabilities`) a batch holds no table,
     only the measurements' rows of it at a profile, ``count × K_max² × A`` entries.
 
     ``shared`` (N,) int, optional: a label per robot whose equal labels mark games that hold
@@ -231,13 +231,6 @@ def sharing_games(d: int, k2: int, n_actions: int, max_elems: int) -> int:
     return max(1, int(max_elems // (table + rows)))
 
 
-def held_sharing(solver, potentials) -> int | None:
-    """The smallest game (valid variables × actions) from which ``solver`` solves the equal
-    games of a batch on one pairwise table that ``potentials`` hold for them (the
-    ``held_sharing_min`` of ``solver.capabilities(potentials)``), or None."""
-    return solver.capabilities(potentials).held_sharing_min
-
-
 def sharing_labels(messages: Messages, n_actions: int, min_entries: int) -> np.ndarray:
     """A label per robot, equal for robots whose local games (from exact ``messages``) hold
     the same robots, and -1 for games of fewer than ``min_entries`` valid entries: the
@@ -263,13 +256,6 @@ def sharing_labels(messages: Messages, n_actions: int, min_entries: int) -> np.n
     key = h ^ (sizes.astype(np.uint64) << np.uint64(48))
     _, label = np.unique(key, return_inverse=True)
     return np.where(big, label.reshape(-1), -1)
-
-
-def pair_on_demand(solver, potentials) -> bool:
-    """Whether ``solver`` computes the pairwise tables of ``potentials`` per chunk of games
-    instead of holding a batch's (the ``pairs_on_demand`` of
-    ``solver.capabilities(potentials)``)."""
-    return solver.capabilities(potentials).pairs_on_demand
 
 
 class _Record:
@@ -431,9 +417,10 @@ def solve(problem: StageProblem, rng: int | np.random.Generator | None = None) -
     sizes = source.sizes
     if mode == "exact":  # the games hold the context too
         sizes = sizes + source.context_sizes
-    on_demand = pair_on_demand(solver, potentials)
+    caps = solver.capabilities(potentials)  # read once a stage
+    on_demand = caps.pairs_on_demand
     n_act = problem.n_actions
-    share_min = None if not problem.exact or mode == "exact" else held_sharing(solver, potentials)
+    share_min = None if not problem.exact or mode == "exact" else caps.held_sharing_min
     shared = None if share_min is None else sharing_labels(messages, n_act, share_min)
     groups = size_groups(sizes, problem.buckets, n_act, on_demand=on_demand, shared=shared)
     build_s = time.perf_counter() - t0

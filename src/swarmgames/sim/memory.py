@@ -41,6 +41,7 @@ from swarmgames.errors import ConfigError
 from swarmgames.game.capabilities import capabilities_of
 from swarmgames.game.memory import GIB, MemoryEstimate, stage_memory
 from swarmgames.missions.protocol import MissionHooks
+from swarmgames.names import CONTROLLERS
 
 __all__ = [
     "INTERPRETER_BYTES",
@@ -181,20 +182,13 @@ def _potentials_bytes(mission, k: int, a: int, games: int, n: int) -> tuple[floa
     return 0.0, 0.0, entries * 8.0 + crowding_bytes(entries)
 
 
-def _pairs_on_demand(config, mission) -> bool:
-    """Whether the run's solver computes its mission's pairwise tables on demand."""
-    from swarmgames.game.stage import pair_on_demand
+def _solver_capabilities(config, mission):
+    """What the run's solver does with its mission's potentials: whether it computes the
+    pairwise tables on demand, and from which game size it shares one held table among equal
+    games (:class:`~swarmgames.game.capabilities.SolverCapabilities`)."""
     from swarmgames.sim.controllers import solver_from_config
 
-    return pair_on_demand(solver_from_config(config.game), mission.potentials)
-
-
-def _held_sharing(config, mission) -> int | None:
-    """From which game size the run's solver shares one held table among equal games."""
-    from swarmgames.game.stage import held_sharing
-    from swarmgames.sim.controllers import solver_from_config
-
-    return held_sharing(solver_from_config(config.game), mission.potentials)
+    return solver_from_config(config.game).capabilities(mission.potentials)
 
 
 def estimate_memory(config, mission=None, *, whole_run: bool = True) -> MemoryEstimate:
@@ -222,13 +216,14 @@ def estimate_memory(config, mission=None, *, whole_run: bool = True) -> MemoryEs
     d = int(mission.state_dim)
     k = neighbourhood_size(config, mission)
     itemsize = 4 if config.game.dtype == "float32" else 8
-    lloyd = config.sim.controller == "lloyd"
-    centralised = config.game.solver == "centralised" and not lloyd
+    baseline = config.sim.controller not in CONTROLLERS  # a mission's: no game is solved
+    centralised = config.game.solver == "centralised" and not baseline
+    caps = _solver_capabilities(config, mission)
     kwargs = {
         "state_dim": d,
         "itemsize": itemsize,
-        "pair_on_demand": not centralised and _pairs_on_demand(config, mission),
-        "held_sharing": None if centralised else _held_sharing(config, mission),
+        "pair_on_demand": not centralised and caps.pairs_on_demand,
+        "held_sharing": None if centralised else caps.held_sharing_min,
     }
     first = stage_memory(n, k, a, **kwargs)
     unary, owner, pair_work = _potentials_bytes(mission, first.n_vars, a, first.batch_games, n)
@@ -237,7 +232,7 @@ def estimate_memory(config, mission=None, *, whole_run: bool = True) -> MemoryEs
         k,
         a,
         **kwargs,
-        global_regret=config.sim.global_regret and not lloyd,
+        global_regret=config.sim.global_regret and not baseline,
         centralised=centralised,
         unary_bytes=unary,
         owner_unary_bytes=owner if config.sim.global_regret else 0.0,  # the ex-post's too
