@@ -13,7 +13,7 @@ computing the unary once instead of N times removes a factor N from the stage's 
 (:func:`~swarmgames.missions.coverage.slots.shared_rows`: equal ids *and* equal values) and
 returns the games to compute and how to copy their rows back. A batch without repeated games
 (a spread swarm, or routed delivery where every inbox differs) costs one sort of the member
-ids per game and is computed as before.
+ids per game and is computed game by game.
 """
 
 from __future__ import annotations

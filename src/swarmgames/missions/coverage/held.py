@@ -2,9 +2,8 @@
 
 In a dense swarm the local games of a batch hold the same robots in the same states, in
 another order (each game starts with its owner). Their float64 tables are then equal up to
-that order (:mod:`~swarmgames.missions.coverage.distinct`), and until now each game was given
-its own reordered copy: 58 MB per game at K = 300, which every mean-field sweep streamed
-from memory. :class:`HeldPairs` holds one weighted table per group, in the order of the game
+that order (:mod:`~swarmgames.missions.coverage.distinct`); a reordered copy per game would
+take 58 MB at K = 300, streamed from memory by every mean-field sweep. :class:`HeldPairs` holds one weighted table per group, in the order of the game
 it was computed for, and serves it as a
 :class:`~swarmgames.game.potentials.PairSource` that ranks its games' variables
 (``shared``, ``ranked_table``): the compiled engine solves every game of a group on the one
@@ -121,8 +120,9 @@ class HeldPairs:
         """The tables of ``games``' groups in rank order, (G, K, A, K, A) (the table game's
         own order when its valid variables come first). One group whose table is in rank
         order already (every table game of a dense swarm) is served as a view of the held
-        table, which the engines only read (a copy of its 58 MB at K = 300 took 10 ms, for
-        the solve and again for the refinement of every batch); else a new array."""
+        table, which the engines only read (a copy of its 58 MB at K = 300 would take about
+        10 ms, for the solve and again for the refinement of every batch); else a new
+        array."""
         games = np.asarray(games, dtype=np.int64).reshape(-1)
         ranks = self._table_rank
         if games.size == 1:
