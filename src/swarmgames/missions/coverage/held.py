@@ -3,9 +3,9 @@
 In a dense swarm the local games of a batch hold the same robots in the same states, in
 another order (each game starts with its owner). Their float64 tables are then equal up to
 that order (:mod:`~swarmgames.missions.coverage.distinct`); a reordered copy per game would
-take 58 MB at K = 300, streamed from memory by every mean-field sweep. :class:`HeldPairs` holds one weighted table per group, in the order of the game
-it was computed for, and serves it as a
-:class:`~swarmgames.game.potentials.PairSource` that ranks its games' variables
+take 58 MB at K = 300, streamed from memory by every mean-field sweep. :class:`HeldPairs`
+holds one weighted table per group, in the order of the game it was computed for, and
+serves it as a :class:`~swarmgames.game.potentials.PairSource` that ranks its games' variables
 (``shared``, ``ranked_table``): the compiled engine solves every game of a group on the one
 table, the games in step.
 
