@@ -22,6 +22,7 @@ BASE = (
     "swarmgames.arrays",
     "swarmgames.errors",
     "swarmgames.labels",
+    "swarmgames.lazy",
     "swarmgames.lifetime",
     "swarmgames.names",
     "swarmgames.rng",

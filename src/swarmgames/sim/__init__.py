@@ -1,6 +1,6 @@
 """Simulation layer: the stage loop, controllers, run results and their files."""
 
-from importlib import import_module
+from swarmgames.lazy import lazy_names
 
 __all__ = [
     "BaselineController",
@@ -38,14 +38,4 @@ _HOMES = {
 }
 
 
-def __getattr__(name: str):
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(import_module(f"{__name__}.{home}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
+__getattr__, __dir__ = lazy_names(__name__, _HOMES, __all__)
