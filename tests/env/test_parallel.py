@@ -167,3 +167,16 @@ def test_flat_observations_and_a_supersuit_vector_env():
     assert first.shape == (15, obs["uav_0"].size)
     _, rew, *_ = vec.step(np.zeros(15, dtype=int))
     assert rew.shape == (15,) and np.isfinite(rew).all()
+
+
+def test_the_stage_time_is_the_runs_clock():
+    # The warm-up, then one control period a step: the t of the mission's potentials and
+    # metrics (swarmgames.sim.loop), as a run of the same scenario has it.
+    env = _env(sim__warmup_s=5.0)
+    with pytest.raises(RuntimeError, match="reset"):
+        env.stage_time
+    env.reset(seed=0)
+    period = env.config.sim.control_period_s
+    assert env.stage_time == 5.0
+    env.step(env.expert_actions())
+    assert env.stage_time == 5.0 + period

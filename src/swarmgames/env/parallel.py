@@ -234,7 +234,7 @@ class SwarmParallelEnv(ParallelEnv):
         live = list(self.agents)
         rewards = self._rewards(record, live)
         done = loop.stage >= self._n_stages
-        alive_next = self._loop.faults.alive(loop.warmup_s + loop.stage * loop.period_s)
+        alive_next = self._loop.faults.alive(self.stage_time)
         terminations = {a: bool(not alive_next[self._index(a)]) for a in live}
         truncations = {a: bool(done and not terminations[a]) for a in live}
         self._alive &= alive_next
@@ -278,7 +278,7 @@ class SwarmParallelEnv(ParallelEnv):
 
         loop = self._loop
         edges = swarm_graph_stats(loop.observe().snapshot)[3]
-        t = loop.warmup_s + loop.stage * loop.period_s
+        t = self.stage_time
         alive = loop.faults.alive(t)
         radio = loop.faults.radio(t, loop.states)
         return draw_frame(self.mission, loop.states[:, :2], edges, alive, radio, t)
@@ -289,6 +289,15 @@ class SwarmParallelEnv(ParallelEnv):
         closer = getattr(getattr(loop, "provider", None), "close", None)
         if closer is not None:
             closer()
+
+    @property
+    def stage_time(self) -> float:
+        """The time of the stage the agents observe now, seconds: the network's warm-up, then
+        one control period a step (the ``t`` a mission's metrics and potentials see)."""
+        if self._loop is None:
+            raise RuntimeError("call reset() before stage_time")
+        loop = self._loop
+        return loop.warmup_s + loop.stage * loop.period_s
 
     def state(self) -> np.ndarray:
         """The true states of every robot, (N, D) (PettingZoo's global state)."""
