@@ -97,3 +97,20 @@ def curie_weiss(
     pair = np.full((1, k, levels, k, levels), offset) + (coupling / k) * spin[:, None, None] * spin
     pair[0, np.arange(k), :, np.arange(k), :] = 0.0
     return unary.astype(np.float32), pair.astype(np.float32)
+
+
+def games_of(mask, states, next_states, action_mask) -> LocalGameBatch:
+    """The games of the arrays of a batch (``mask`` (B, K), ``states`` (B, K, D),
+    ``next_states`` (B, K, A, D), ``action_mask`` (B, K, A)), variable k of every game
+    being robot k (game b owned by robot 0)."""
+    mask = np.asarray(mask, dtype=bool)
+    b, k = mask.shape
+    return LocalGameBatch(
+        owner=np.zeros(b, dtype=np.int32),
+        members=np.where(mask, np.arange(k), -1),
+        mask=mask,
+        states=states,
+        is_virtual=np.zeros((b, k), dtype=bool),
+        next_states=next_states,
+        action_mask=action_mask,
+    )

@@ -223,7 +223,7 @@ def _dense_default_stage(monkeypatch, share: bool):
     import swarmgames.game.stage as stage
     from swarmgames.bench.stage import StageBench
     from swarmgames.config import resolve_scenario
-    from swarmgames.missions.coverage import held
+    from swarmgames.game import held
 
     monkeypatch.setattr(held, "HELD_SHARE_MIN", 100)
     monkeypatch.setattr(stage, "MAX_PAIR_ELEMS", 1_000_000)
@@ -278,7 +278,7 @@ def pair_on_demand(solver, potentials):
 
 def test_which_solvers_solve_equal_held_games_on_one_table():
     from swarmgames.config import parse_config
-    from swarmgames.missions.coverage.held import HELD_SHARE_MIN
+    from swarmgames.game.held import HELD_SHARE_MIN
     from swarmgames.missions.coverage.mission import build
 
     pot = build(parse_config({"swarm": {"n_robots": 4}})).potentials

@@ -1,7 +1,6 @@
 """Tests of the coverage potentials (paper eqs. 5 and 6) and the coverage metric."""
 
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -10,6 +9,7 @@ from hypothesis import strategies as st
 
 from swarmgames.game.inertia import Inertia
 from swarmgames.missions import CoveragePotentials, GaussianROI, HeadingActions, SignalModel
+from tests.game.helpers import games_of
 
 T0, L0, N_EXP = 16.0206, 46.6777, 3.0  # ns-3 log-distance defaults, docs/reference.md section 2
 
@@ -21,12 +21,8 @@ def _psi(d):
 
 def _batch(states, members_mask, model):
     states = np.asarray(states, dtype=float)
-    return SimpleNamespace(
-        mask=np.asarray(members_mask, dtype=bool),
-        states=states,
-        next_states=model.apply(states),
-        action_mask=model.valid(states) & np.asarray(members_mask, dtype=bool)[..., None],
-    )
+    mask = np.asarray(members_mask, dtype=bool)
+    return games_of(mask, states, model.apply(states), model.valid(states) & mask[..., None])
 
 
 @pytest.fixture

@@ -1,4 +1,4 @@
-"""Equal float64 games of a batch share one held table (coverage.held.HeldPairs).
+"""Equal float64 games of a batch share one held table (swarmgames.game.held.HeldPairs).
 
 The reference is the held path, a table per game (``pair_table``, each repeated game a
 reordered copy of its group's): the source must give the same W, bit for bit, through every
@@ -12,17 +12,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from swarmgames.game import mean_field
+from swarmgames.game import held, mean_field
+from swarmgames.game.held import HELD_SHARE_MIN, HeldPairs
 from swarmgames.game.potentials import evaluate_payoffs
-from swarmgames.missions.coverage import held
-from swarmgames.missions.coverage.held import HELD_SHARE_MIN, HeldPairs
-from tests.missions.test_distinct_games import _dense, _moved
+from swarmgames.game.rows import StageRows
+from tests.missions.test_equal_games import _dense, _moved
 
 
 def _payoffs(batch, pot, share: bool, monkeypatch):
     monkeypatch.setattr(held, "HELD_SHARE_MIN", HELD_SHARE_MIN if share else 10**9)
-    pot._pair_carry = None  # each computation on its own
-    return evaluate_payoffs(batch, pot, 1.0, 0.001, dtype=np.float64)
+    # Each computation on its own: a stage of its own, with no carried table.
+    return evaluate_payoffs(batch.on(StageRows()), pot, 1.0, 0.001, dtype=np.float64)
 
 
 @pytest.mark.parametrize("moved", [False, True])

@@ -5,7 +5,6 @@ import os
 import subprocess
 import sys
 import textwrap
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -23,6 +22,7 @@ from swarmgames.missions.coverage.kernel import (
     log_f32,
 )
 from swarmgames.missions.coverage.window import RoiRaster, windowed_unary
+from tests.game.helpers import games_of
 
 T0, L0, N_EXP = 16.0206, 46.6777, 3.0  # ns-3 log-distance defaults, docs/reference.md section 2
 ROI = GaussianROI((0.0, 0.0), ((400.0**2, 0.0), (0.0, 300.0**2)), 0.95, 20.0)
@@ -212,7 +212,7 @@ def test_potentials_choose_the_kernel_and_reject_an_unknown_one():
 
 def _pair_batch(seed, b=6, k=7, spread=60.0):
     mask, amask, states, nxt = _games(np.random.default_rng(seed), b, k, spread)
-    return SimpleNamespace(mask=mask, action_mask=amask, states=states, next_states=nxt)
+    return games_of(mask, states, nxt, amask)
 
 
 @pytest.mark.parametrize("crowding", [0.0, 0.1])

@@ -12,6 +12,7 @@ from swarmgames.game import evaluate_payoffs, mean_field
 from swarmgames.game.capabilities import PotentialCapabilities
 from swarmgames.missions import CoveragePotentials, GaussianROI, HeadingActions, SignalModel
 from swarmgames.missions.coverage.window import RoiRaster, floor_distance_sq, windowed_unary
+from tests.game.helpers import games_of
 
 T0, L0, N_EXP = 16.0206, 46.6777, 3.0  # ns-3 log-distance defaults, docs/reference.md section 2
 ROI = GaussianROI((0.0, 0.0), ((250.0**2, 0.0), (0.0, 200.0**2)), 0.95, 20.0)
@@ -156,8 +157,7 @@ def test_coverage_potentials_use_the_window_under_a_floor():
     pot = CoveragePotentials(ROI, SIGNAL, softness_db=1.0, signal_floor_dbm=-100.0)
     rng = np.random.default_rng(5)
     states, nxt, mask, amask = _games(rng, 2, 3, 200.0)
-    batch = SimpleNamespace(mask=mask, states=states, next_states=nxt, action_mask=amask)
-    got = pot.unary(batch)
+    got = pot.unary(games_of(mask, states, nxt, amask))
     ref = _reference(states, nxt, mask, amask, -100.0, 1.0)
     for b, k in zip(*np.nonzero(mask), strict=True):
         assert np.ptp((ref[b, k] - got[b, k])[amask[b, k]]) < 1e-5
@@ -174,11 +174,12 @@ def test_raster_holds_the_roi_weights():
 
 @pytest.mark.parametrize("workers", [1, 2])
 def test_state_ids_and_threads_give_the_same_unary(workers):
-    # Shared signals keyed by robot id (real or virtual) equal those keyed by value.
+    # Shared signals keyed by robot id (real or virtual) equal those of the same games whose
+    # variables are numbered by position in the game.
     from swarmgames.config.scaling import scaled_config
     from swarmgames.game import local_games
     from swarmgames.sim.runner import build_mission
-    from tests.game.helpers import disk_snapshot
+    from tests.game.helpers import disk_snapshot, games_of
 
     cfg = scaled_config(80, workers=workers)
     mission = build_mission(cfg)
@@ -188,10 +189,5 @@ def test_state_ids_and_threads_give_the_same_unary(workers):
     batch = local_games(disk_snapshot(pos[:, :2], 368.84), 2, pos, model)
     assert batch.is_virtual.any()
     by_id = pot.unary(batch)
-    plain = SimpleNamespace(
-        mask=batch.mask,
-        states=batch.states,
-        next_states=batch.next_states,
-        action_mask=batch.action_mask,
-    )
+    plain = games_of(batch.mask, batch.states, batch.next_states, batch.action_mask)
     np.testing.assert_array_equal(by_id, pot.unary(plain))

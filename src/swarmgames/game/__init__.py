@@ -16,6 +16,7 @@ from swarmgames.game.capabilities import (
 )
 from swarmgames.game.checks import check_action_model, check_potentials
 from swarmgames.game.colocated import colocated_groups, separate_colocated
+from swarmgames.game.equal import CarriedGame, EqualGames, equal_games
 from swarmgames.game.equilibrium import (
     OwnerPayoffs,
     deviation_gains,
@@ -28,7 +29,9 @@ from swarmgames.game.equilibrium import (
     pure_equilibria,
 )
 from swarmgames.game.expost import expost_games, expost_regret
+from swarmgames.game.held import HeldPairs
 from swarmgames.game.inertia import Inertia
+from swarmgames.game.kept import KeptRows, RowTables
 from swarmgames.game.local import (
     LocalView,
     LocalViews,
@@ -51,6 +54,7 @@ from swarmgames.game.potentials import (
 )
 from swarmgames.game.problem import StageProblem
 from swarmgames.game.refine import Refinement, refine_profiles
+from swarmgames.game.rows import StageRows, shared_rows
 from swarmgames.game.solvers import (
     SOLVERS,
     BestResponseSolver,
@@ -83,12 +87,16 @@ __all__ = [
     "VIRTUAL_MEANS",
     "ActionModel",
     "BestResponseSolver",
+    "CarriedGame",
     "DisplacementActions",
+    "EqualGames",
     "ExactSolver",
     "FunctionPotentials",
     "GamePayoffs",
     "GameSolution",
+    "HeldPairs",
     "Inertia",
+    "KeptRows",
     "LocalGameBatch",
     "LocalView",
     "LocalViews",
@@ -101,9 +109,11 @@ __all__ = [
     "Potentials",
     "RandomSolver",
     "Refinement",
+    "RowTables",
     "Solver",
     "SolverCapabilities",
     "StageProblem",
+    "StageRows",
     "StageSolution",
     "TablePotentials",
     "action_mask_of",
@@ -118,6 +128,7 @@ __all__ = [
     "colocated_groups",
     "deviation_gains",
     "enumerate_payoffs",
+    "equal_games",
     "evaluate_games",
     "evaluate_payoffs",
     "exact_profiles",
@@ -143,6 +154,7 @@ __all__ = [
     "receive",
     "refine_profiles",
     "separate_colocated",
+    "shared_rows",
     "solve",
     "stage_regret",
     "virtual_mode",

@@ -14,12 +14,16 @@ References
 
 from __future__ import annotations
 
+import copy
 import numbers
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from swarmgames.arrays import frozen
+from swarmgames.game.equal import EqualGames, equal_games
+from swarmgames.game.rows import StageRows, row_ids
 
 __all__ = ["LocalGameBatch"]
 
@@ -59,11 +63,16 @@ class LocalGameBatch:
         warm-up plus the stage number times the control period). Potentials that depend on
         time (a moving target) read it here, never from the states; 0.0 for games built
         outside a run.
+    stage : StageRows, optional
+        The distinct rows of the stage the games belong to (:mod:`~swarmgames.game.rows`),
+        shared by every batch of the stage; default: rows of this batch alone.
 
     Notes
     -----
     All arrays are copied and made read-only. Use :meth:`select` to take a subset of games
-    and :meth:`trim` to drop padding columns no game uses; both keep ``t``.
+    and :meth:`trim` to drop padding columns no game uses; both keep ``t`` and ``stage``.
+    :attr:`rows` refers every variable to its stage row, and :attr:`equal_games` names the
+    games that hold the same rows; both are computed on first use.
     """
 
     owner: np.ndarray
@@ -76,8 +85,13 @@ class LocalGameBatch:
     pair_mask: np.ndarray | None = field(default=None)
     is_context: np.ndarray | None = field(default=None)
     t: float = 0.0
+    stage: StageRows | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
+        if self.stage is None:
+            object.__setattr__(self, "stage", StageRows())
+        elif not isinstance(self.stage, StageRows):
+            raise ValueError(f"stage must be a StageRows (got {type(self.stage).__name__})")
         t = self.t
         if isinstance(t, bool) or not isinstance(t, numbers.Real) or not np.isfinite(t):
             raise ValueError(f"t must be a finite number of seconds (got {t!r})")
@@ -125,6 +139,39 @@ class LocalGameBatch:
                 )
             object.__setattr__(self, "is_context", frozen(self.is_context, bool))
 
+    @cached_property
+    def rows(self) -> np.ndarray:
+        """The stage row of every variable, (B, K) int64, -1 at padding: equal rows hold the
+        same robot (or virtual mean) in the same state, with the same next states and valid
+        actions, in every batch of the stage (:class:`~swarmgames.game.rows.StageRows`)."""
+        out = self.stage.index(
+            row_ids(self.members, self.is_virtual), self.mask, self.states, self.next_states,
+            self.action_mask,
+        )  # fmt: skip
+        out.setflags(write=False)
+        return out
+
+    @cached_property
+    def equal_games(self) -> EqualGames | None:
+        """The games that hold the same rows as an earlier game of the batch, up to order
+        (:func:`~swarmgames.game.equal.equal_games`); None when there is none."""
+        return equal_games(self.rows, self.mask)
+
+    def on(self, stage: StageRows) -> LocalGameBatch:
+        """The same games as part of ``stage`` (its rows numbered there); the arrays are
+        shared, not copied."""
+        out = copy.copy(self)
+        out.__dict__.pop("rows", None)
+        out.__dict__.pop("equal_games", None)
+        object.__setattr__(out, "stage", stage)
+        return out
+
+    def _with_rows(self, out: LocalGameBatch, rows) -> LocalGameBatch:
+        """``out`` with the rows ``rows`` of this batch's (when computed already)."""
+        if "rows" in self.__dict__:
+            out.__dict__["rows"] = self.rows[rows]
+        return out
+
     @property
     def players(self) -> np.ndarray:
         """Boolean ``(B, K)``: valid variables that decide (not context)."""
@@ -163,7 +210,7 @@ class LocalGameBatch:
     def select(self, games) -> LocalGameBatch:
         """The sub-batch of the games ``games`` (indices or a boolean mask over B)."""
         idx = np.arange(self.n_games)[games]
-        return LocalGameBatch(
+        out = LocalGameBatch(
             owner=self.owner[idx],
             members=self.members[idx],
             mask=self.mask[idx],
@@ -174,7 +221,9 @@ class LocalGameBatch:
             pair_mask=None if self.pair_mask is None else self.pair_mask[idx],
             is_context=None if self.is_context is None else self.is_context[idx],
             t=self.t,
+            stage=self.stage,
         )
+        return self._with_rows(out, idx)
 
     def trim(self) -> LocalGameBatch:
         """The same games with the trailing padding columns that no game uses dropped."""
@@ -193,6 +242,7 @@ class LocalGameBatch:
             pair_mask=None if self.pair_mask is None else self.pair_mask[:, :k, :k],
             is_context=None if self.is_context is None else self.is_context[:, :k],
             t=self.t,
+            stage=self.stage,
         )
 
     @classmethod
@@ -200,7 +250,8 @@ class LocalGameBatch:
         """One batch holding the games of ``batches`` in order, padded to the widest K and A.
 
         All batches must have the same state size D and the same stage time ``t``.
-        ``pair_mask`` is kept only if every batch has one (None otherwise).
+        ``pair_mask`` is kept only if every batch has one (None otherwise); the batches'
+        stage is kept when they share one.
         """
         batches = list(batches)
         if not batches:
@@ -241,4 +292,5 @@ class LocalGameBatch:
             if any_context
             else None,
             t=batches[0].t,
+            stage=batches[0].stage if all(b.stage is batches[0].stage for b in batches) else None,
         )

@@ -30,6 +30,7 @@ import numpy as np
 from swarmgames.arrays import frozen
 from swarmgames.game.actions import ActionModel
 from swarmgames.game.capabilities import capabilities_of
+from swarmgames.game.kept import RowTables
 from swarmgames.game.local import Inbox, broadcast
 from swarmgames.game.potentials import Potentials
 from swarmgames.game.refine import REFINE_METHODS
@@ -88,6 +89,11 @@ class StageProblem:
     refine : {"none", "best_response"}, default "none"
         ``"best_response"``: refine every game's solved profile by best-response sweeps to a
         pure Nash equilibrium (:func:`~swarmgames.game.refine.refine_profiles`).
+    kept : RowTables or None, default None
+        The tables of per-row values the run keeps across its stages
+        (:class:`~swarmgames.game.kept.RowTables`): a controller holds one for its run and
+        puts it in every problem, so that potentials compute a row once while it stays
+        there. None: nothing is kept beyond the stage. The results do not depend on it.
 
     Attributes
     ----------
@@ -132,6 +138,7 @@ class StageProblem:
     global_regret: bool = True
     keep_games: bool = False
     refine: str = "none"
+    kept: RowTables | None = field(default=None, repr=False)
     exact: bool = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -169,6 +176,8 @@ class StageProblem:
         object.__setattr__(self, "centralised", bool(self.centralised))
         object.__setattr__(self, "global_regret", bool(self.global_regret))
         object.__setattr__(self, "keep_games", bool(self.keep_games))
+        if self.kept is not None and not isinstance(self.kept, RowTables):
+            raise ValueError(f"kept must be a RowTables or None (got {type(self.kept).__name__})")
 
     @classmethod
     def ideal(

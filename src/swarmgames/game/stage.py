@@ -66,6 +66,7 @@ from swarmgames.game.local import (
 from swarmgames.game.potentials import GamePayoffs, Potentials, evaluate_payoffs
 from swarmgames.game.problem import StageProblem
 from swarmgames.game.refine import refine_profiles
+from swarmgames.game.rows import StageRows
 from swarmgames.game.solvers import GameSolution, sample_actions
 from swarmgames.game.virtual import virtual_mode
 from swarmgames.rng import as_generator
@@ -261,7 +262,10 @@ def sharing_labels(messages: Messages, n_actions: int, min_entries: int) -> np.n
 class _Record:
     """The per-robot arrays of a stage, filled game batch by game batch."""
 
-    def __init__(self, n: int, n_actions: int = 0) -> None:
+    def __init__(self, problem: StageProblem, n_actions: int = 0) -> None:
+        n = problem.n_robots
+        #: The stage's distinct rows, shared by every batch the stage builds.
+        self.rows = StageRows(kept=problem.kept)
         self.actions = np.zeros(n, dtype=np.int64)
         self.marginal = np.zeros((n, n_actions))
         self.action_mask = np.zeros((n, n_actions), dtype=bool)
@@ -306,18 +310,26 @@ class _Record:
 
 
 def evaluate_games(
-    problem: StageProblem, inbox: Inbox, owners, *, virtual_mean: bool | str
+    problem: StageProblem,
+    inbox: Inbox,
+    owners,
+    *,
+    virtual_mean: bool | str,
+    stage: StageRows | None = None,
 ) -> tuple[LocalGameBatch, GamePayoffs, float, float]:
     """The second step, for one batch: the local games of ``owners`` built from their inboxes
     (``inbox.views(owners)``, with ``context=True`` for ``virtual_mean = "exact"``:
     :class:`~swarmgames.game.local.Messages` for exact, instant delivery, or what a
     communication model delivered) at the problem's time, with its action model, and their
     payoff tables (its potentials under its solver's weights); with the build and the
-    evaluation (payoff integration) times, seconds."""
+    evaluation (payoff integration) times, seconds. ``stage``: the distinct rows of the
+    stage the batch belongs to (default: a batch of its own, with the problem's kept
+    tables)."""
     t0 = time.perf_counter()
     mode = virtual_mode(virtual_mean)
     views = inbox.views(owners, context=True) if mode == "exact" else inbox.views(owners)
     batch = build_local_games(views, problem.action_model, virtual_mean=mode, t=problem.t)
+    batch = batch.on(StageRows(kept=problem.kept) if stage is None else stage)
     t1 = time.perf_counter()
     pay = problem.solver.evaluate(batch, problem.potentials)
     return batch, pay, t1 - t0, time.perf_counter() - t1
@@ -328,7 +340,9 @@ def _true_measures(rec: _Record, problem: StageProblem, messages, groups) -> flo
     virtual means) at the realised actions ``rec.actions``; returns the evaluation time."""
     integrate_s = 0.0
     for owners in groups:
-        batch, pay, _, t_int = evaluate_games(problem, messages, owners, virtual_mean="off")
+        batch, pay, _, t_int = evaluate_games(
+            problem, messages, owners, virtual_mean="off", stage=rec.rows
+        )
         members = np.asarray(pay.members)
         profile = np.where(pay.mask, rec.actions[np.maximum(members, 0)], 0)
         rec.measure(owners, batch, pay, profile)
@@ -351,7 +365,7 @@ def _expost(rec: _Record, problem: StageProblem, messages, groups, next_states) 
     t0 = time.perf_counter()
     for owners in groups:
         views = messages.views(owners)
-        batch = expost_games(views, next_states, problem.action_model, t=problem.t)
+        batch = expost_games(views, next_states, problem.action_model, t=problem.t).on(rec.rows)
         rows = _owner_rows(problem.solver, batch, problem.potentials)
         rec.expost_regret[owners] = expost_regret(rows, rec.actions)
         del batch, rows
@@ -424,11 +438,13 @@ def solve(problem: StageProblem, rng: int | np.random.Generator | None = None) -
     shared = None if share_min is None else sharing_labels(messages, n_act, share_min)
     groups = size_groups(sizes, problem.buckets, n_act, on_demand=on_demand, shared=shared)
     build_s = time.perf_counter() - t0
-    rec = _Record(n, n_act)
+    rec = _Record(problem, n_act)
     integrate_s = solve_s = refine_s = 0.0
     batches, sols = [], []
     for owners in groups:
-        batch, pay, t_build, t_int = evaluate_games(problem, source, owners, virtual_mean=mode)
+        batch, pay, t_build, t_int = evaluate_games(
+            problem, source, owners, virtual_mean=mode, stage=rec.rows
+        )
         sol, ref = _refined(solver.solve_payoffs(pay, gen), pay, problem.refine)
         rec.actions[owners] = sol.actions
         rec.marginal[owners] = sol.marginals[:, 0]
@@ -506,6 +522,7 @@ def _global_regret(rec: _Record, problem: StageProblem, messages, batches) -> No
     def again(owners) -> np.ndarray:
         views = messages.views(owners)
         batch = build_local_games(views, problem.action_model, virtual_mean="off", t=problem.t)
+        batch = batch.on(rec.rows)
         # Only the owner's row is read: the others are held at their realised actions.
         batch = owner_deviations(batch, rec.actions)
         return global_regret(_owner_rows(problem.solver, batch, problem.potentials), rec.actions)
@@ -553,9 +570,11 @@ def _solve_centralised(problem: StageProblem, gen: np.random.Generator) -> Stage
     """The swarm as one game (refined to a pure NE of that game with ``refine``); every robot
     measured on its true local game."""
     solver, potentials, action_model = problem.solver, problem.potentials, problem.action_model
-    states, n = problem.states, problem.n_robots
+    states = problem.states
     t0 = time.perf_counter()
+    rec = _Record(problem)
     batch = centralised_game(problem.snapshot, problem.h, states, action_model, t=problem.t)
+    batch = batch.on(rec.rows)
     t1 = time.perf_counter()
     pay = solver.evaluate(batch, potentials)
     t2 = time.perf_counter()
@@ -566,7 +585,6 @@ def _solve_centralised(problem: StageProblem, gen: np.random.Generator) -> Stage
         marginal = _preferring(marginal, actions)
     elif solver.capabilities(potentials).samples_actions:
         actions = sample_actions(sol.marginals[0], batch.action_mask[0], actions, gen)
-    rec = _Record(n)
     rec.actions[:] = separate_colocated(states, actions, marginal, batch.action_mask[0], gen)
     messages, groups = plan_stage(problem)
     _true_measures(rec, problem, messages, groups)
@@ -609,7 +627,7 @@ def _given_actions(problem: StageProblem, actions) -> _Record:
     n = problem.n_robots
     if actions.shape != (n,):
         raise ValueError(f"actions must have shape ({n},) (got {actions.shape})")
-    rec = _Record(n)
+    rec = _Record(problem)
     rec.actions[:] = actions
     return rec
 

@@ -32,6 +32,7 @@ import numpy as np
 
 from swarmgames.errors import ConfigError
 from swarmgames.game import Solver, capabilities_of, make_solver
+from swarmgames.game.kept import RowTables
 from swarmgames.game.problem import StageProblem
 from swarmgames.game.stage import StageSolution, measure_expost, measure_stage, solve
 from swarmgames.missions.protocol import MissionHooks
@@ -122,6 +123,8 @@ class _Controller:
         self.virtual_mean = config.game.virtual_mean  # normalised by the schema: "eq3", ...
         self.centralised = config.game.solver == "centralised"
         self.refine = config.game.refine
+        #: The per-row values this run's stages keep for the next (results do not depend on it).
+        self.kept = RowTables()
 
     def plan(self, loop) -> None:
         """Nothing: the controller decides from the stage alone."""
@@ -147,6 +150,7 @@ class _Controller:
             global_regret=self.global_regret,
             keep_games=keep_games,
             refine=self.refine,
+            kept=self.kept,
         )
 
     def measure(self, problem: StageProblem, actions, *, expost: bool | None = None):

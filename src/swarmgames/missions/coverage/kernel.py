@@ -15,10 +15,10 @@ arrays. For every valid variable ``k`` of every game, on one thread:
 
 No (variables × actions × cells) array is ever held. The signals of step 3 depend on the
 state alone: they are computed once for every distinct state (equal id, state, next states
-and valid actions: :func:`~swarmgames.missions.coverage.slots.shared_rows`) of a chunk of
+and valid actions: :func:`~swarmgames.game.rows.shared_rows`) of a chunk of
 games in spatial order, into a table of states (:func:`_state_table`) that the variables'
 gains read (:func:`_gain_rows`); with a
-:class:`~swarmgames.missions.coverage.signals.StateSignals`, that table is kept across calls,
+:class:`~swarmgames.game.kept.KeptRows`, that table is kept across calls,
 and a state already there is not computed again.
 
 Arithmetic
@@ -55,11 +55,11 @@ from numba import njit, prange, types
 from numba.extending import intrinsic
 
 from swarmgames.game.capabilities import PairSourceCapabilities
+from swarmgames.game.equal import EqualGames, equal_games
+from swarmgames.game.kept import KeptRows
 from swarmgames.game.meanfield_compiled import PARALLEL_MIN_GAMES, in_parallel, pool
-from swarmgames.missions.coverage.distinct import DistinctGames, distinct_games
+from swarmgames.game.rows import shared_rows
 from swarmgames.missions.coverage.signal import SignalModel
-from swarmgames.missions.coverage.signals import StateSignals
-from swarmgames.missions.coverage.slots import shared_rows
 from swarmgames.missions.coverage.window import (
     RoiRaster,
     _morton,
@@ -71,7 +71,7 @@ __all__ = ["CoveragePairs", "compiled_windowed_unary", "exp_f32", "log1p_f32", "
 
 _f32 = np.float32
 
-#: Ids at or above this (or negative) are not kept across calls (:class:`StateSignals`).
+#: Ids at or above this (or negative) are not kept across calls (:class:`KeptRows`).
 _MAX_KEPT_ID = 1 << 26
 
 PARALLEL_MIN_ROWS = 16 * PARALLEL_MIN_GAMES
@@ -384,7 +384,7 @@ def compiled_windowed_unary(
     state_ids: np.ndarray | None = None,
     chunk_elems: int = 2_000_000,
     rows: np.ndarray | None = None,
-    signals: StateSignals | None = None,
+    signals: KeptRows | None = None,
 ) -> np.ndarray:
     """:math:`\\tilde\\phi_u` of every game, variable and action, by the fused kernel.
 
@@ -405,10 +405,10 @@ def compiled_windowed_unary(
         Compute only these variables (the others are 0); every variable of ``mask`` still
         counts among the others of its game, and a computed variable's values are those of
         the whole computation, bit for bit. Default: every valid variable.
-    signals : StateSignals, optional
+    signals : KeptRows, optional
         A table of action signals kept across calls (with ``state_ids``): a state found
         there with the same values and window is not computed again
-        (:mod:`~swarmgames.missions.coverage.signals`). The result is the same bit for bit.
+        (:mod:`~swarmgames.game.kept`). The result is the same bit for bit.
 
     Returns
     -------
@@ -656,13 +656,15 @@ class CoveragePairs:
         The engine's pairwise weight of every game, :math:`\\alpha_b` or
         :math:`\\alpha_b / (K_b - 1)` (:func:`~swarmgames.game.potentials.pair_weights`).
     ids : ndarray of int64, shape (B, K), optional
-        Which robot each variable is (``2 * member + is_virtual``); with it, :meth:`shared`
-        ranks every game's variables by id and names the games that hold the same
-        variables in another order.
-    repeats : DistinctGames, optional
-        The games that hold the same robots in the same states as an earlier one, when the
-        potentials found them for the unary already (the same robots, states, next states
-        and valid actions); :meth:`shared` finds them otherwise.
+        Which robot each variable is (``2 * member + is_virtual``); with it and ``rows``,
+        :meth:`shared` ranks every game's variables by id and names the games that hold
+        the same variables in another order.
+    rows : ndarray of int64, shape (B, K), optional
+        The stage row of every variable (``LocalGameBatch.rows``).
+    repeats : EqualGames, optional
+        The games that hold the same rows as an earlier one (``LocalGameBatch.equal_games``)
+        when the source holds the batch's games in their order; :meth:`shared` finds them
+        from ``rows`` otherwise.
     """
 
     points: np.ndarray
@@ -674,7 +676,8 @@ class CoveragePairs:
     crowd: np.float32
     weight: np.ndarray
     ids: np.ndarray | None = None
-    repeats: DistinctGames | None = None
+    rows: np.ndarray | None = None
+    repeats: EqualGames | None = None
 
     #: ``at_sums``, ``shared`` and ``ranked_table``.
     capabilities: ClassVar[PairSourceCapabilities] = PairSourceCapabilities(
@@ -723,11 +726,11 @@ class CoveragePairs:
     def shared(self) -> tuple[np.ndarray, np.ndarray] | None:
         """``(head, rank)`` of :class:`~swarmgames.game.potentials.PairSource`: every game's
         variables ranked by id (``2 * member + is_virtual``, the valid ones first), and
-        games whose valid variables are the same robots with the same next positions,
-        valid actions and weight share the ranked table of the first of them. Each entry
-        of W is computed from its two points alone, so their ranked tables are equal bit for
-        bit. None without ids; computed once per source."""
-        return None if self.ids is None else self._shared
+        games whose valid variables are the same rows with the same weight share the ranked
+        table of the first of them. Each entry of W is computed from its two points alone,
+        so their ranked tables are equal bit for bit. None without ids and rows; computed
+        once per source."""
+        return None if self.ids is None or self.rows is None else self._shared
 
     @cached_property
     def _shared(self) -> tuple[np.ndarray, np.ndarray]:
@@ -738,8 +741,7 @@ class CoveragePairs:
         valid_vars = self.valid.any(axis=2)
         same = self.repeats
         if same is None:
-            weight = np.broadcast_to(self.weight[:, None], (b, k))
-            same = distinct_games(self.ids, valid_vars, self.points, self.valid, weight)
+            same = equal_games(self.rows, valid_vars)
         if same is not None:
             src = same.source
             cand = same.games[src.max(axis=1) // k]
@@ -775,5 +777,6 @@ class CoveragePairs:
             valid=self.valid[games],
             weight=self.weight[games],
             ids=None if self.ids is None else self.ids[games],
+            rows=None if self.rows is None else self.rows[games],
             repeats=None,
         )

@@ -77,7 +77,8 @@ from typing import ClassVar
 import numpy as np
 
 from swarmgames.game.capabilities import PotentialCapabilities
-from swarmgames.missions.coverage.distinct import CarriedGame, distinct_games
+from swarmgames.game.equal import CarriedGame
+from swarmgames.game.rows import row_ids
 from swarmgames.missions.coverage.roi import GaussianROI
 from swarmgames.missions.coverage.signal import SignalModel
 from swarmgames.missions.coverage.window import (
@@ -117,16 +118,6 @@ _DENSE_METRIC_ELEMS = 20_000_000
 _KEPT_FIELD_BYTES = 64 * 2**20
 
 
-def _state_ids(batch) -> np.ndarray | None:
-    """``2 * member + is_virtual`` of every variable, (B, K): which variables of a batch
-    should hold the same state (a robot, or its virtual mean); None for a batch without
-    member ids."""
-    members, virtual = getattr(batch, "members", None), getattr(batch, "is_virtual", None)
-    if members is None or virtual is None:
-        return None
-    return 2 * np.asarray(members, dtype=np.int64) + np.asarray(virtual, dtype=bool)
-
-
 def _batch_arrays(batch) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``mask`` (B, K), ``amask`` (B, K, A) (the valid actions of valid variables), and the
     positions of the states (B, K, 3) and next states (B, K, A, 3) of a batch."""
@@ -137,13 +128,30 @@ def _batch_arrays(batch) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray
     return mask, amask, states, nxt
 
 
-def _next_carry(carry, off, same, ids, mask, values, computed):
-    """The :class:`~swarmgames.missions.coverage.distinct.CarriedGame` a batch leaves for the
-    next: its largest group of equal games (``same``, over ``carry`` and the batch when
-    ``off`` is 1), with ``computed(g)``, the values of game g of ``same``; None when every
-    game is alone."""
-    arrays = carry.joined(ids, mask, *values) if off else (ids, mask, values)
+def _next_carry(carry, off, same, batch, computed):
+    """The :class:`~swarmgames.game.equal.CarriedGame` a batch leaves for the next: its
+    largest group of equal games (``same``, over ``carry`` and the batch when ``off`` is 1),
+    with ``computed(g)``, the values of game g of ``same``; None when every game is alone."""
+    mask = np.asarray(batch.mask, dtype=bool)
+    arrays = carry.joined(batch.rows, mask) if off else (batch.rows, mask)
     return CarriedGame.largest(same, *arrays, computed, first=off)
+
+
+def _groups(carry, batch):
+    """``(same, off)``: the groups of equal games of ``carry`` (game 0, ``off`` = 1) and the
+    batch when any batch game repeats it or another, else those of the batch alone
+    (``batch.equal_games``, ``off`` = 0; ``same`` None when every game is alone)."""
+    mask = np.asarray(batch.mask, dtype=bool)
+    same = None if carry is None else carry.match(batch.rows, mask)
+    return (same, 1) if same is not None else (batch.equal_games, 0)
+
+
+#: Names of what the coverage potentials keep in a stage
+#: (:meth:`~swarmgames.game.rows.StageRows.carry`) and a run
+#: (:meth:`~swarmgames.game.kept.RowTables.table`).
+_UNARY, _PAIRS, _FIELDS, _SIGNALS = (
+    "coverage.unary", "coverage.pairs", "coverage.fields", "coverage.signals"
+)  # fmt: skip
 
 
 @dataclass(eq=False)
@@ -185,10 +193,10 @@ class CoveragePotentials:
         Without a signal floor the whole-grid integral is numpy's either way.
     signal_table_elems : int, default 96_000_000
         Upper bound on the float32 values (384 MiB; two states per id below that: 60 MiB at
-        1 000 UAVs) of the table of states' action signals
-        that the compiled windowed kernel keeps across batches
-        (:class:`~swarmgames.missions.coverage.signals.StateSignals`): a state is computed
-        once a stage while it stays there. The results do not depend on it.
+        1 000 UAVs) of the run's table of states' action signals that the compiled windowed
+        kernel keeps across batches and stages (:class:`~swarmgames.game.kept.KeptRows`, in
+        the :class:`~swarmgames.game.kept.RowTables` the stage hands over): a state is
+        computed once while it stays there. The results do not depend on it.
     signal_floor_dbm : float or None, default None
         Signals below this level count as the level in eq. 5, and each variable's unary is
         integrated only over the cells its actions can change, relative to what the other
@@ -229,11 +237,6 @@ class CoveragePotentials:
         pair_table=True, pair_source=True, owner_rows=True, held_sharing=True, memory=True
     )
     _raster: RoiRaster | None = field(default=None, init=False, repr=False)
-    _last_fields: tuple | None = field(default=None, init=False, repr=False)
-    _last_repeats: tuple | None = field(default=None, init=False, repr=False)
-    _unary_carry: object = field(default=None, init=False, repr=False)
-    _pair_carry: object = field(default=None, init=False, repr=False)
-    _signals: object = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.separation_mode not in ("pairwise", "unary"):
@@ -283,82 +286,61 @@ class CoveragePotentials:
         if amask.shape[0] == 0:
             self.last_integrate_s = time.perf_counter() - t0
             return np.zeros(amask.shape)
-        ids = _state_ids(batch)
         if self._crowding_on and self.separation_mode == "unary":
             # The crowding sum runs in the order of the game's variables: no sharing.
-            out = self._integral(mask, amask, states, nxt, ids)
+            out = self._integral(batch, mask, amask, states, nxt)
             out -= self._crowding(mask, states, nxt)
         else:
-            out = self._shared_integral(batch, mask, amask, states, nxt, ids)
+            out = self._shared_integral(batch, mask, amask, states, nxt)
         out[~amask] = 0.0
         self.last_integrate_s = time.perf_counter() - t0
         return out
 
-    def _integral(self, mask, amask, states, nxt, ids, rows=None) -> np.ndarray:
+    def _integral(self, batch, mask, amask, states, nxt, games=None, rows=None) -> np.ndarray:
         """Eq. 5's integral of every game, variable and action, (B, K, A): over each
         variable's window of cells (``signal_floor_dbm`` set) or over the whole grid;
-        ``rows`` (B, K) bool: only those variables (the windowed kernel; others 0)."""
+        ``games``: of those games of ``batch`` only (the arrays are theirs already, default
+        all); ``rows`` (B, K) bool: only those variables (the windowed kernel; others 0)."""
         if self.signal_floor_dbm is not None:
-            return self._windowed(mask, amask, states, nxt, ids, rows=rows)
+            ids = row_ids(batch.members, batch.is_virtual)
+            ids = ids if games is None else ids[games]
+            return self._windowed(batch.stage, mask, amask, states, nxt, ids, rows=rows)
         out = np.zeros(amask.shape)
-        self._full_grid(out, mask, amask, states, nxt)
+        self._full_grid(batch.stage, out, mask, amask, states, nxt)
         return out
 
-    def _repeats(self, batch):
-        """The games of ``batch`` that hold the same robots in the same states as an earlier
-        one (:func:`~swarmgames.missions.coverage.distinct.distinct_games` over the states,
-        next states and valid actions), or None; kept for the batch last asked about, whose
-        unary, pairwise table and pair source all use it."""
-        last = self._last_repeats
-        if last is not None and last[0] is batch:
-            return last[1]
-        ids = _state_ids(batch)
-        same = None
-        if ids is not None:
-            mask, amask, states, nxt = _batch_arrays(batch)
-            same = distinct_games(ids, mask, states, nxt, amask)
-        self._last_repeats = (batch, same)
-        return same
-
-    def _shared_integral(self, batch, mask, amask, states, nxt, ids, rows=None) -> np.ndarray:
+    def _shared_integral(self, batch, mask, amask, states, nxt, rows=None) -> np.ndarray:
         """:meth:`_integral`, computed once for every group of games that hold the same
-        robots in the same states (:meth:`_repeats`: the integral does not depend on the
-        order of a game's variables), bit for bit. Over the whole grid (no signal floor), a
-        game of the previous batch is carried over too (:meth:`_carried_integral`)."""
-        if rows is None and self.signal_floor_dbm is None and ids is not None:
-            return self._carried_integral(batch, mask, amask, states, nxt, ids)
-        same = self._repeats(batch)
+        rows (``batch.equal_games``: the integral does not depend on the order of a game's
+        variables), bit for bit. Over the whole grid (no signal floor), a game of the stage's
+        previous batch is carried over too (:meth:`_carried_integral`)."""
+        if rows is None and self.signal_floor_dbm is None:
+            return self._carried_integral(batch, mask, amask, states, nxt)
+        same = batch.equal_games
         if same is None:
-            return self._integral(mask, amask, states, nxt, ids, rows)
+            return self._integral(batch, mask, amask, states, nxt, rows=rows)
         g = same.games
         sub_rows = None if rows is None else same.rows(rows)
-        part = self._integral(mask[g], amask[g], states[g], nxt[g], ids[g], sub_rows)
+        part = self._integral(batch, mask[g], amask[g], states[g], nxt[g], g, sub_rows)
         return same.expand(part)
 
-    def _carried_integral(self, batch, mask, amask, states, nxt, ids) -> np.ndarray:
+    def _carried_integral(self, batch, mask, amask, states, nxt) -> np.ndarray:
         """The whole-grid unary of every game, computed once per group of equal games of the
-        batch and of the largest group of the previous batch
-        (:class:`~swarmgames.missions.coverage.distinct.CarriedGame`): a dense swarm's
-        batches hold the same game, whose unary (0.03 s a batch at 300 UAVs, 100 batches of 3
-        games a float64 stage) is then computed once a stage."""
-        values = (states, nxt, amask)
-        carry = self._unary_carry
-        same, off = self._groups(carry, batch, ids, mask, values)
+        batch and of the largest group of the stage's previous batch
+        (:class:`~swarmgames.game.equal.CarriedGame`): a dense swarm's batches hold the same
+        game, whose unary (0.03 s a batch at 300 UAVs, 100 batches of 3 games a float64
+        stage) is then computed once a stage."""
+        stage = batch.stage
+        carry = stage.carried(self, _UNARY)
+        same, off = _groups(carry, batch)
         if same is None:
-            self._unary_carry = None
-            return self._integral(mask, amask, states, nxt, ids)
+            stage.carry(self, _UNARY, None)
+            return self._integral(batch, mask, amask, states, nxt)
         heads = same.games[off:] - off  # the batch's games to compute
-        part = self._integral(mask[heads], amask[heads], states[heads], nxt[heads], ids[heads])
+        part = self._integral(batch, mask[heads], amask[heads], states[heads], nxt[heads], heads)
         full = same.expand(np.concatenate([carry.computed[None], part]) if off else part)
-        self._unary_carry = _next_carry(carry, off, same, ids, mask, values, full.__getitem__)
+        stage.carry(self, _UNARY, _next_carry(carry, off, same, batch, full.__getitem__))
         return full[off:]
-
-    def _groups(self, carry, batch, ids, mask, values):
-        """``(same, off)``: the groups of equal games of ``carry`` (game 0, ``off`` = 1) and
-        the batch when any batch game repeats it or another, else those of the batch alone
-        (:meth:`_repeats`, ``off`` = 0; ``same`` None when every game is alone)."""
-        same = None if carry is None or ids is None else carry.match(ids, mask, *values)
-        return (same, 1) if same is not None else (self._repeats(batch), 0)
 
     def owner_unary(self, batch) -> np.ndarray:
         """:math:`\\phi_u` of every game's variable 0 only, (B, A): ``unary(batch)[:, 0]``
@@ -375,19 +357,20 @@ class CoveragePotentials:
         if whole:
             # Each game's owner deviates against its own others: no two games are equal.
             out = np.zeros(amask.shape)
-            self._full_grid(out, mask, amask, states, nxt, owner_only=True)
+            self._full_grid(batch.stage, out, mask, amask, states, nxt, owner_only=True)
             out = out[:, 0]
             out[~amask[:, 0]] = 0.0
             return out
-        ids = _state_ids(batch)
         owner = np.zeros(mask.shape, dtype=bool)
         owner[:, 0] = True
-        out = self._shared_integral(batch, mask, amask, states, nxt, ids, rows=owner)[:, 0]
+        out = self._shared_integral(batch, mask, amask, states, nxt, rows=owner)[:, 0]
         out[~amask[:, 0]] = 0.0
         return out
 
-    def _windowed(self, mask, amask, states, nxt, ids=None, rows=None) -> np.ndarray:
-        """The unary over each variable's window of cells (``signal_floor_dbm`` set)."""
+    def _windowed(self, stage, mask, amask, states, nxt, ids, rows=None) -> np.ndarray:
+        """The unary over each variable's window of cells (``signal_floor_dbm`` set); the
+        compiled kernel keeps the signals of states' actions in the run's table
+        (``stage.kept``, when the stage has one)."""
         a = self.roi.cell_m
         reach = np.sqrt(floor_distance_sq(self.signal, self.signal_floor_dbm))
         r = int(np.ceil((reach + max_move(states, nxt, amask)) / a)) + 1
@@ -395,10 +378,9 @@ class CoveragePotentials:
             self._raster = RoiRaster.from_roi(self.roi, r + 2)
         if self._compiled:
             from swarmgames.missions.coverage.kernel import compiled_windowed_unary
-            from swarmgames.missions.coverage.signals import StateSignals
 
-            if self._signals is None:
-                self._signals = StateSignals(self.signal_table_elems)
+            kept = stage.kept
+            signals = None if kept is None else kept.table(self, _SIGNALS, self.signal_table_elems)
             return compiled_windowed_unary(
                 self._raster,
                 self.signal,
@@ -412,7 +394,7 @@ class CoveragePotentials:
                 state_ids=ids,
                 chunk_elems=self.chunk_elems // 2,
                 rows=rows,
-                signals=self._signals,
+                signals=signals,
             )
         return windowed_unary(
             self._raster,
@@ -428,7 +410,7 @@ class CoveragePotentials:
             state_ids=ids,
         )
 
-    def _full_grid(self, out, mask, amask, states, nxt, owner_only: bool = False) -> None:
+    def _full_grid(self, stage, out, mask, amask, states, nxt, owner_only=False) -> None:
         """Eq. 4 over the whole ROI grid, written into ``out`` (B, K, A); ``owner_only``:
         variable 0's rows alone (the others stay as they are), each the same floats as in a
         whole evaluation (the same (A, G) @ (G,) product per variable)."""
@@ -444,7 +426,7 @@ class CoveragePotentials:
             uniq, inv[valid] = np.unique(rows_xyz, axis=0, return_inverse=True)
         else:
             uniq = np.zeros((1, 3))
-        fields = self._fields(uniq)  # (U, G) float32
+        fields = self._fields(stage, uniq)  # (U, G) float32
         cur_idx = inv[: B * K].reshape(B, K)
         nxt_idx = inv[B * K :].reshape(B, K, A)
         w = self.roi.weights.astype(np.float32)
@@ -481,16 +463,17 @@ class CoveragePotentials:
                     val += tau * np.log1p(np.exp(-np.abs(f - o) / tau))
                 out[lo:hi, k0:k1] = val @ w
 
-    def _fields(self, positions: np.ndarray) -> np.ndarray:
-        """The signal of every position at every ROI cell, (U, G) float32; the last batch's
-        fields (up to ``_KEPT_FIELD_BYTES``) are kept and given back for the same positions
+    def _fields(self, stage, positions: np.ndarray) -> np.ndarray:
+        """The signal of every position at every ROI cell, (U, G) float32; the stage's last
+        batch's fields (up to ``_KEPT_FIELD_BYTES``, carried by ``stage``) are given back
+        for the same positions
         (a stage's batches of a dense swarm hold the same robots: one field instead of one
         per batch), and so are their rows for positions among the kept ones (the ex-post
         games stand every robot where one of its actions of the stage's games took it). A
         field's rows are computed cell by cell, so a kept row is the row computed anew
         (tested)."""
         key = positions.tobytes()
-        held = self._last_fields
+        held = stage.carried(self, _FIELDS)
         if held is not None:
             held_key, index, held_fields = held
             if held_key == key:
@@ -502,10 +485,10 @@ class CoveragePotentials:
                 return fields
         fields = self.signal.field(positions, self.roi.points)
         fields.flags.writeable = False
-        self._last_fields = None
+        kept = None
         if fields.nbytes <= _KEPT_FIELD_BYTES:
-            index = {p.tobytes(): i for i, p in enumerate(positions)}
-            self._last_fields = (key, index, fields)
+            kept = (key, {p.tobytes(): i for i, p in enumerate(positions)}, fields)
+        stage.carry(self, _FIELDS, kept)
         return fields
 
     def _crowding(self, mask, states, nxt) -> np.ndarray:
@@ -643,9 +626,10 @@ class CoveragePotentials:
 
     def held_sharing_min(self, dtype) -> int | None:
         """The valid entries from which a batch's equal games share one held table of
-        ``dtype`` (:meth:`_held_pairs`, float64: :data:`~swarmgames.missions.coverage.held.
-        HELD_SHARE_MIN`); None for float32, whose tables are computed on demand."""
-        from swarmgames.missions.coverage.held import HELD_SHARE_MIN
+        ``dtype`` (:meth:`_held_pairs`, float64:
+        :data:`~swarmgames.game.held.HELD_SHARE_MIN`); None for float32, whose tables are
+        computed on demand."""
+        from swarmgames.game.held import HELD_SHARE_MIN
 
         return HELD_SHARE_MIN if np.dtype(dtype) == np.float64 else None
 
@@ -681,29 +665,26 @@ class CoveragePotentials:
             weight=np.ascontiguousarray(
                 np.broadcast_to(np.asarray(weights, dtype=np.float32), mask.shape[:1])
             ),
-            ids=_state_ids(batch),
-            repeats=self._repeats(batch),
+            ids=row_ids(batch.members, batch.is_virtual),
+            rows=batch.rows,
+            repeats=batch.equal_games,
         )
 
     def _held_pairs(self, batch, weights):
-        """The float64 tables of a batch whose large games repeat one another (or the
-        previous batch's carried game) as :class:`~swarmgames.missions.coverage.held.
-        HeldPairs`, one weighted table per group; None when no group of at least two games
-        has :data:`~swarmgames.missions.coverage.held.HELD_SHARE_MIN` valid entries (the
-        engine then takes :meth:`pair_table`, a table per game)."""
+        """The float64 tables of a batch whose large games repeat one another (or the stage's
+        carried game) as :class:`~swarmgames.game.held.HeldPairs`, one weighted table per
+        group; None when no group of at least two games has
+        :data:`~swarmgames.game.held.HELD_SHARE_MIN` valid entries (the engine then takes
+        :meth:`pair_table`, a table per game)."""
+        from swarmgames.game.held import HELD_SHARE_MIN, HeldPairs
         from swarmgames.game.potentials import weighted_pair_table
-        from swarmgames.missions.coverage.held import HELD_SHARE_MIN, HeldPairs
 
-        ids = _state_ids(batch)
-        if ids is None:
-            return None
-        mask, amask, states, nxt = _batch_arrays(batch)
+        mask, amask, _, _ = _batch_arrays(batch)
         b, k, a = amask.shape
         if not np.any(mask.sum(axis=1) * a >= HELD_SHARE_MIN):
             return None  # no game large enough to share a table: no need to group them
-        values = (states, nxt, amask)
-        carry = self._pair_carry
-        same, off = self._groups(carry, batch, ids, mask, values)
+        carry = batch.stage.carried(self, _PAIRS)
+        same, off = _groups(carry, batch)
         if same is None:
             return None
         src = same.source[off:]
@@ -737,10 +718,10 @@ class CoveragePotentials:
         # The largest group's game is carried to the next batch (unweighted: before the
         # weights scale ``own`` in place). A head of same is the carried game or its group's
         # first batch game, whose own-order table ``own`` holds.
-        self._pair_carry = _next_carry(
-            carry, off, same, ids, mask, values,
+        batch.stage.carry(self, _PAIRS, _next_carry(
+            carry, off, same, batch,
             lambda g: carry.computed if off and g == 0 else own[group[g - off]],
-        )  # fmt: skip
+        ))  # fmt: skip
         weighted = weighted_pair_table(batch.select(first), lambda *_: own, w[first], np.float64)
         return HeldPairs(weighted, group, var, mask.copy(), mask[first].copy())
 
@@ -753,7 +734,7 @@ class CoveragePotentials:
 
         In float64 the values equal :meth:`pairwise` bit for bit, and every entry is computed
         from its two points alone, so the games of a batch that hold the same robots in the
-        same states (:mod:`~swarmgames.missions.coverage.distinct`) are computed once and the
+        same states (:mod:`~swarmgames.game.equal`) are computed once and the
         others' tables are copies of it with their variables reordered, bit for bit. In
         float32 the squared distances come from one batched product per game,
         :math:`|p|^2 + |q|^2 - 2 p \\cdot q` in float64 on coordinates relative to the game's
@@ -761,29 +742,25 @@ class CoveragePotentials:
         dtype = np.dtype(dtype)
         if dtype != np.float64:
             return self._pair_table(batch, dtype)
-        ids = _state_ids(batch)
-        mask, amask, states, nxt = _batch_arrays(batch)
-        values = (states, nxt, amask)
-        carry = self._pair_carry
-        same, off = self._groups(carry, batch, ids, mask, values)
-        self._pair_carry = None
+        stage = batch.stage
+        carry = stage.carried(self, _PAIRS)
+        same, off = _groups(carry, batch)
+        stage.carry(self, _PAIRS, None)
         if same is None:
             return self._pair_table(batch, dtype)
         # The first game of every group is computed in place, the others copied from it (or
-        # from the previous batch's carried game, game 0 of ``same``, when ``off`` is 1: a
+        # from the stage's carried game, game 0 of ``same``, when ``off`` is 1: a
         # dense float64 swarm's batches then compute one table a stage, not one a batch).
         heads = same.games[off:] - off
         if heads.size:
             out = self._pair_table(batch, dtype, games=heads)
         else:
-            b, k, a = amask.shape
+            b, k, a = np.shape(batch.action_mask)
             out = np.empty((b, k, a, k, a), dtype=dtype)
         same.expand_pairs(out, carry.computed if off else None)
-        if ids is not None:
-            self._pair_carry = _next_carry(
-                carry, off, same, ids, mask, values,
-                lambda g: carry.computed if off and g == 0 else out[g - off],
-            )  # fmt: skip
+        stage.carry(self, _PAIRS, _next_carry(
+            carry, off, same, batch, lambda g: carry.computed if off and g == 0 else out[g - off]
+        ))  # fmt: skip
         return out
 
     def owner_pair_table(self, batch, dtype=np.float64) -> np.ndarray | None:

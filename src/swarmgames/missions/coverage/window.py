@@ -45,9 +45,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from swarmgames.game.rows import shared_rows
 from swarmgames.missions.coverage.roi import GaussianROI
 from swarmgames.missions.coverage.signal import SignalModel
-from swarmgames.missions.coverage.slots import shared_rows
 
 __all__ = [
     "RoiRaster",
@@ -286,7 +286,7 @@ def windowed_unary(
     state_ids : (B, K) int, optional
         Hints of equal states across games (for example ``2 * member + is_virtual``); rows
         with equal ids share their action signals where their states and next states are
-        equal too (:func:`~swarmgames.missions.coverage.slots.shared_rows`); default:
+        equal too (:func:`~swarmgames.game.rows.shared_rows`); default:
         compared by value.
     workers : int
         Threads over chunks of games (numpy releases the GIL; the result does not depend on

@@ -1,8 +1,9 @@
 """A batch's float64 pairwise tables held once for every group of equal games.
 
-In a dense swarm the local games of a batch hold the same robots in the same states, in
+In a dense swarm the local games of a batch hold the same rows (robots in their states), in
 another order (each game starts with its owner). Their float64 tables are then equal up to
-that order (:mod:`~swarmgames.missions.coverage.distinct`); a reordered copy per game would
+that order (:mod:`~swarmgames.game.equal`), for any potentials whose table entries depend on
+their two variables alone; a reordered copy per game would
 take 58 MB at K = 300, streamed from memory by every mean-field sweep. :class:`HeldPairs`
 holds one weighted table per group, in the order of the game it was computed for, and
 serves it as a :class:`~swarmgames.game.potentials.PairSource` that ranks its games' variables
@@ -11,8 +12,9 @@ table, the games in step.
 
 A group's first game (its head) reads the table in its own order, so its results are those
 of its own table bit for bit; the other games sum their pair fields in the head's order,
-which changes their last bits. The potentials use it only for games of at least
-:data:`HELD_SHARE_MIN` valid entries (the 7-UAV golden runs' games keep their own tables).
+which changes their last bits. Potentials that build it declare from which size
+(``held_sharing_min``; the coverage mission: :data:`HELD_SHARE_MIN` valid entries, so that
+the 7-UAV golden runs' games keep their own tables).
 """
 
 from __future__ import annotations

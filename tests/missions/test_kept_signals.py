@@ -4,8 +4,8 @@ holds, every call's unary is the one computed without it, bit for bit."""
 import numpy as np
 import pytest
 
+from swarmgames.game.kept import KeptRows
 from swarmgames.missions.coverage.kernel import compiled_windowed_unary
-from swarmgames.missions.coverage.signals import StateSignals
 from tests.missions.test_kernel import MODEL, RASTER, SIGNAL
 
 
@@ -25,7 +25,7 @@ def _batch(rng, members, positions, k=6, b=12):
 def test_kept_signals_give_the_unary_without_them(max_elems):
     rng = np.random.default_rng(4)
     positions = rng.uniform(-250.0, 250.0, (40, 2))
-    signals = StateSignals(max_elems)
+    signals = KeptRows(max_elems)
     for call in range(6):
         if call == 3:  # the robots move: their old entries must not be used
             positions[::2] += 7.0
@@ -45,7 +45,7 @@ def test_kept_signals_follow_a_new_window_and_owner_rows():
     rng = np.random.default_rng(8)
     positions = rng.uniform(-200.0, 200.0, (30, 2))
     arrays, ids = _batch(rng, np.arange(30), positions)
-    signals = StateSignals()
+    signals = KeptRows()
     tables = []
     for floor, tau in ((-100.0, 1.0), (-95.0, 1.0), (-100.0, 0.0), (-100.0, 1.0)):
         args = (RASTER, SIGNAL, floor, *arrays)
@@ -78,7 +78,7 @@ def test_beliefs_that_differ_under_one_id_are_kept_apart():
     amask[:, 2] = MODEL.valid(states[:, 2])
     args = (RASTER, SIGNAL, -100.0, mask, amask, states, nxt)
     want = compiled_windowed_unary(*args, softness_db=1.0)
-    signals = StateSignals()
+    signals = KeptRows()
     for _ in range(2):
         got = compiled_windowed_unary(*args, softness_db=1.0, state_ids=ids, signals=signals)
         assert np.array_equal(got, want)
@@ -87,7 +87,7 @@ def test_beliefs_that_differ_under_one_id_are_kept_apart():
 def test_a_state_used_again_keeps_its_row_over_one_used_once():
     # Three rows of one value each. The clock hand passes over a row used since it last came
     # by (its state was found again) and takes the first row that was not.
-    signals = StateSignals(3)
+    signals = KeptRows(3)
     signals.prepare(("window",), 1, 1, 1, 10, 1)
 
     def assign(*ids):
@@ -106,6 +106,6 @@ def test_a_state_used_again_keeps_its_row_over_one_used_once():
 
 
 @pytest.mark.parametrize("bad", [0, -3, 2.5, True])
-def test_state_signals_reject_a_bad_bound(bad):
+def test_kept_rows_reject_a_bad_bound(bad):
     with pytest.raises(ValueError, match="max_elems"):
-        StateSignals(bad)
+        KeptRows(bad)

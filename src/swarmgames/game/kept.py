@@ -1,21 +1,22 @@
-"""The action signals of states, kept across the batches of a stage.
+"""Per-row values kept across the batches and stages of a run, in bounded tables.
 
-A stage splits its local games into batches of similar size, so the games that hold a robot
-(its own and its neighbours') fall into different batches: at 1 000 UAVs the fused kernel
-(:mod:`swarmgames.missions.coverage.kernel`) found 6 036 distinct states in the batches of a
-stage that holds 1 933. :class:`StateSignals` keeps each state's table of action signals
-(A × C float32 values, 15 KB at A = 9 and a window of 421 cells) across the kernel's calls,
-so that a state is computed once a stage while it stays in the table.
+A value that depends on one row alone (a robot in a state, :mod:`~swarmgames.game.rows`),
+such as the coverage mission's signals of a state's actions over its window (A × C float32
+values, 15 KB at A = 9 and a window of 421 cells), is the same wherever the row appears: in
+the other batches of its stage, and in later stages while the robot stays where it is.
+:class:`KeptRows` keeps such values in one table of fixed size, so that a row is computed
+once while it stays there; :class:`RowTables` holds a run's tables by name, and the stage
+hands it to the potentials through its :class:`~swarmgames.game.rows.StageRows`. The mission
+keeps nothing itself.
 
-An entry is found by the state's id (``2 * member + is_virtual``) and used only when its
-values are equal to the state's, bit for bit: its state, next states and valid actions, for
-the same window geometry. A state is always computed by the same code from those values, so
-the results are the same whether its entry was computed in this call or an earlier one.
-Entries are replaced by a clock hand with a second chance: the hand never takes a row that the
-current chunk of games uses, and passes over (and clears) a row whose state was found again
-since the hand last came by, so the states that several batches share outlive those a stage
-used once (the old states of robots that moved). The table holds at most ``max_elems``
-float32 values.
+An entry is found by the row's id (``2 * member + is_virtual``) and used only when its
+values are equal to the row's, bit for bit (its state, next states and valid actions), for
+the same geometry of what is computed. A row is always computed by the same code from those
+values, so the results are the same whether its entry was computed in this call or an
+earlier one. Entries are replaced by a clock hand with a second chance: the hand never takes
+a row that the current chunk uses, and passes over (and clears) a row found again since the
+hand last came by, so the rows that several batches share outlive those a stage used once
+(the old states of robots that moved). A table holds at most ``max_elems`` float32 values.
 """
 
 from __future__ import annotations
@@ -25,15 +26,15 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-__all__ = ["StateSignals"]
+__all__ = ["KeptRows", "RowTables"]
 
 
 @njit(cache=True, nogil=True)
 def _assign(def_ids, def_keys, index, ids, keys, stamp, used, now, hand):
-    """The table row of every defining state of a chunk, and whether it must be computed.
+    """The table row of every defining row of a chunk, and whether it must be computed.
 
-    A state whose id's row holds equal keys is found there; any other takes the first row
-    from the clock hand on that no state of this chunk uses (``stamp == now``) and that was
+    A row whose id's entry holds equal keys is found there; any other takes the first entry
+    from the clock hand on that no row of this chunk uses (``stamp == now``) and that was
     not used since the hand last passed it (``used``: the hand clears it and moves on), which
     is then the row of its id. Returns ``(rows, miss, hand)``."""
     n, m = def_keys.shape
@@ -72,21 +73,22 @@ def _assign(def_ids, def_keys, index, ids, keys, stamp, used, now, hand):
 
 
 @dataclass(eq=False)
-class StateSignals:
-    """A table of states' action signals kept across calls of the fused coverage kernel.
+class KeptRows:
+    """A bounded table of per-row float32 blocks kept across calls.
 
     Parameters
     ----------
     max_elems : int, default 96_000_000
         Upper bound on the table's float32 values (384 MiB); the table holds at least one
-        chunk's states whatever the bound.
+        chunk's rows whatever the bound.
 
     Attributes
     ----------
-    table : ndarray of float32, shape (rows, A, C)
-        The signals, read by the kernel at the rows :meth:`assign` gives.
+    table : ndarray of float32, shape (entries, A, C)
+        Every entry's block (for the coverage kernel, the signals of a state's A actions
+        over its C window cells), read and written at the entries :meth:`assign` gives.
     computed, found : int
-        States computed into the table, and found there already, since the table was made
+        Rows computed into the table, and found there already, since the table was made
         (what the table saved).
     """
 
@@ -111,16 +113,17 @@ class StateSignals:
             raise ValueError(f"max_elems must be >= 1 (got {self.max_elems})")
 
     def capacity(self, n_actions: int, n_cells: int, ids_needed: int) -> int:
-        """Rows of the table for states of ``n_actions`` × ``n_cells`` signals and ids below
+        """Entries of the table for blocks of ``n_actions`` × ``n_cells`` values and ids below
         ``ids_needed``: as many as ``max_elems`` allow, at most two per id (at least 1)."""
         per_row = max(1, int(n_actions) * int(n_cells))
         return max(1, min(int(self.max_elems) // per_row, 2 * int(ids_needed)))
 
     def prepare(self, geometry: tuple, n_actions: int, n_cells: int, rows: int, ids_needed: int,
                 key_width: int) -> None:  # fmt: skip
-        """Make the table ready for a call: ``geometry`` (any hashable description of the
-        window and its constants; a new one empties the table), at least ``rows`` rows (one
-        chunk's states) and ids below ``ids_needed``."""
+        """Make the table ready for a call: ``geometry`` (any hashable description of what a
+        block is computed from besides the row; a new one empties the table), at least
+        ``rows`` entries (one chunk's rows), ids below ``ids_needed`` and keys of
+        ``key_width`` values."""
         cap = max(int(rows), self.capacity(n_actions, n_cells, ids_needed))
         shape = (cap, n_actions, n_cells)
         size = cap * n_actions * n_cells
@@ -146,8 +149,9 @@ class StateSignals:
             self._index = grown
 
     def assign(self, ids: np.ndarray, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(rows, miss)`` for one chunk's distinct states (``ids`` (U,), ``keys`` (U, m)
-        float64): the table row of each, and which must be computed into it."""
+        """``(entries, miss)`` for one chunk's distinct rows (``ids`` (U,), ``keys`` (U, m)
+        float64: the values an entry must match): the table entry of each, and which must
+        be computed into it."""
         self._now += 1
         rows, miss, self._hand = _assign(
             np.ascontiguousarray(ids, dtype=np.int64),
@@ -164,3 +168,25 @@ class StateSignals:
         self.computed += n_miss
         self.found += int(miss.size) - n_miss
         return rows, miss
+
+
+@dataclass(eq=False)
+class RowTables:
+    """The tables of per-row values one run keeps across its stages, by name.
+
+    A controller holds one for its run and puts it in every
+    :class:`~swarmgames.game.problem.StageProblem`; the stage hands it to the potentials
+    (:attr:`~swarmgames.game.rows.StageRows.kept`). What is kept changes no result.
+    """
+
+    _tables: dict = field(default_factory=dict, init=False, repr=False)
+
+    def table(self, owner, name: str, max_elems: int) -> KeptRows:
+        """The table ``name`` of ``owner`` (whoever computes its values, the potentials,
+        compared by identity), of at most ``max_elems`` float32 values: a new, empty one the
+        first time or when the bound changed."""
+        key = (owner, name)
+        table = self._tables.get(key)
+        if table is None or table.max_elems != max_elems:
+            table = self._tables[key] = KeptRows(max_elems)
+        return table

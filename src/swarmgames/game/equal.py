@@ -1,19 +1,17 @@
-"""Local games that hold the same robots in the same states: their unary is computed once.
+"""Local games that hold the same rows: their values are computed once.
 
-The coverage unary of a variable (eq. 5) depends on its own state and next states and on the
-*set* of the other variables' states: the others enter through the best signal at each cell,
-a maximum, which does not depend on their order. Two games whose valid variables are the same
-(robot, virtual flag, state, next states, valid actions) up to order therefore give every
-shared variable the same unary row, bit for bit. That is the dense swarm's case: when every
-robot hears every other with exact delivery, all N local games hold all N robots, and
-computing the unary once instead of N times removes a factor N from the stage's largest cost
-(docs/bench.md, "No cliffs").
+A value of a local game that depends on the *set* of its rows (its robots in their states,
+:mod:`~swarmgames.game.rows`) and not on their order is the same, bit for bit, for two games
+that hold the same rows in another order. The coverage unary (eq. 5) is one: the others enter
+through the best signal at each cell, a maximum. So is a pairwise table up to the order of its
+variables: every entry is computed from its two points alone. That is the dense swarm's case:
+when every robot hears every other with exact delivery, all N local games hold all N robots,
+and computing once instead of N times removes a factor N from the stage's largest cost.
 
-:func:`distinct_games` finds such games from the variables' slots
-(:func:`~swarmgames.missions.coverage.slots.shared_rows`: equal ids *and* equal values) and
-returns the games to compute and how to copy their rows back. A batch without repeated games
-(a spread swarm, or routed delivery where every inbox differs) costs one sort of the member
-ids per game and is computed game by game.
+:func:`equal_games` finds such games from the batch's row index and returns the games to
+compute and how to copy their rows back; :class:`CarriedGame` keeps one game's values for the
+stage's next batch. A batch without repeated games (a spread swarm, or routed delivery where
+every inbox differs) costs one sort of the row indices per game.
 """
 
 from __future__ import annotations
@@ -23,13 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from swarmgames.arrays import sorted_unique
-from swarmgames.missions.coverage.slots import shared_rows
 
-__all__ = ["CarriedGame", "DistinctGames", "distinct_games"]
+__all__ = ["CarriedGame", "EqualGames", "equal_games"]
 
 
 @dataclass(frozen=True)
-class DistinctGames:
+class EqualGames:
     """Which games of a batch to compute, and where each game's rows come from.
 
     Attributes
@@ -74,31 +71,29 @@ class DistinctGames:
             tables[g - off] = frm.take(var[g], axis=0).take(var[g], axis=2)
 
 
-def distinct_games(ids: np.ndarray, mask: np.ndarray, *values: np.ndarray) -> DistinctGames | None:
-    """The games of a batch that are repeats of an earlier one, up to the order of their
-    variables; ``None`` when there is none.
+def equal_games(rows: np.ndarray, mask: np.ndarray) -> EqualGames | None:
+    """The games of a batch that repeat an earlier one, up to the order of their variables;
+    ``None`` when there is none.
 
     Parameters
     ----------
-    ids : ndarray of int, shape (B, K)
-        Which robot each variable is (for example ``2 * member + is_virtual``), any value at
-        padding.
+    rows : ndarray of int, shape (B, K)
+        The row of every variable (:attr:`~swarmgames.game.batch.LocalGameBatch.rows`):
+        equal rows hold the same robot in the same state, with the same next states and
+        valid actions; any value at padding.
     mask : ndarray of bool, shape (B, K)
         Valid variables.
-    *values : ndarray, shape (B, K, ...)
-        What must be equal as well (states, next states, valid actions).
 
     Returns
     -------
-    DistinctGames or None
+    EqualGames or None
 
     Examples
     --------
-    Games 0 and 2 hold robots 5 and 7 at the same states, in another order:
+    Games 0 and 2 hold rows 5 and 7, in another order:
 
-    >>> ids = np.array([[5, 7], [5, 8], [7, 5]])
-    >>> states = np.array([[[0.0], [1.0]], [[0.0], [2.0]], [[1.0], [0.0]]])
-    >>> d = distinct_games(ids, np.ones((3, 2), bool), states)
+    >>> rows = np.array([[5, 7], [5, 8], [7, 5]])
+    >>> d = equal_games(rows, np.ones((3, 2), bool))
     >>> d.games.tolist(), d.source.tolist()
     ([0, 1], [[0, 1], [2, 3], [1, 0]])
     """
@@ -106,13 +101,10 @@ def distinct_games(ids: np.ndarray, mask: np.ndarray, *values: np.ndarray) -> Di
     b, k = mask.shape
     if b < 2:
         return None
-    ids = np.where(mask, np.asarray(ids, dtype=np.int64), -1)
-    # Equal games hold equal sets of ids: without a repeated set there is nothing to share.
-    if not _repeated_rows(np.sort(ids, axis=1)):
+    slot = np.where(mask, np.asarray(rows, dtype=np.int64), -1)
+    # Equal games hold equal sets of rows: without a repeated set there is nothing to share.
+    if not _repeated_rows(np.sort(slot, axis=1)):
         return None
-    rb, rk = np.nonzero(mask)
-    slot = np.full((b, k), -1, dtype=np.int64)
-    slot[rb, rk] = shared_rows(ids[rb, rk], *(np.asarray(v)[rb, rk] for v in values))[0]
     order = np.argsort(np.where(mask, slot, np.iinfo(np.int64).max), axis=1, kind="stable")
     key = np.take_along_axis(slot, order, axis=1)
     first, group = _row_groups(key)
@@ -122,14 +114,13 @@ def distinct_games(ids: np.ndarray, mask: np.ndarray, *values: np.ndarray) -> Di
     rank = np.empty(b, dtype=np.int64)
     rank[games] = np.arange(games.size)
     rep = rank[first[group]]  # the computed game of every game's group
-    # Variable order[b, c] of game b holds the same slot as variable order[rep, c] of its
+    # Variable order[b, c] of game b holds the same row as variable order[rep, c] of its
     # group's computed game.
     rep_order = order[games][rep]
     source = np.full((b, k), -1, dtype=np.int64)
-    rows = np.arange(b)[:, None]
-    source[rows, order] = rep[:, None] * k + rep_order
+    source[np.arange(b)[:, None], order] = rep[:, None] * k + rep_order
     source[~mask] = -1
-    return DistinctGames(games=games, source=source)
+    return EqualGames(games=games, source=source)
 
 
 #: Odd 64-bit multipliers of the columns in :func:`_repeated_rows` (Weyl sequence of the
@@ -173,50 +164,43 @@ class CarriedGame:
 
     A stage splits its games into batches (memory-bounded), and a dense swarm's batches hold
     the same game again: all N games hold all N robots. The potentials keep the largest
-    group's game and its unary rows, or its pairwise table, so that the next batch's games
-    that hold the same robots in the same states take those values instead of computing
-    them again (bit for bit the same: :func:`distinct_games`).
+    group's game and its unary rows, or its pairwise table
+    (:meth:`~swarmgames.game.rows.StageRows.carry`), so that the next batch's games that hold
+    the same rows take those values instead of computing them again (bit for bit the same:
+    :func:`equal_games`). Row indices are those of one stage, so a game is carried only
+    within its stage.
 
     Attributes
     ----------
-    ids : ndarray of int64, shape (1, K)
+    rows : ndarray of int64, shape (1, K)
     mask : ndarray of bool, shape (1, K)
-    values : tuple of ndarray, each (1, K, ...)
-        As the arguments of :func:`distinct_games`.
+        As the arguments of :func:`equal_games`.
     computed : ndarray, shape (K, ...)
         The game's values (unary rows (K, A), or its pairwise table (K, A, K, A)).
     """
 
-    ids: np.ndarray
+    rows: np.ndarray
     mask: np.ndarray
-    values: tuple[np.ndarray, ...]
     computed: np.ndarray
 
-    def match(self, ids, mask, *values) -> DistinctGames | None:
-        """:func:`distinct_games` of this game followed by a batch's games (game 0 is this
-        one, game ``1 + b`` the batch's game b); None when the shapes differ, or when no game
-        repeats another."""
-        if np.shape(mask)[1:] != self.mask.shape[1:] or len(values) != len(self.values):
+    def match(self, rows, mask) -> EqualGames | None:
+        """:func:`equal_games` of this game followed by a batch's games (game 0 is this
+        one, game ``1 + b`` the batch's game b); None when the batch's K differs, or when no
+        game repeats another."""
+        if np.shape(mask)[1:] != self.mask.shape[1:]:
             return None
-        if any(np.shape(v)[1:] != c.shape[1:] for v, c in zip(values, self.values, strict=True)):
-            return None
-        ids_c, mask_c, values_c = self.joined(ids, mask, *values)
-        return distinct_games(ids_c, mask_c, *values_c)
+        return equal_games(*self.joined(rows, mask))
 
-    def joined(self, ids, mask, *values):
-        """``(ids, mask, values)`` of this game followed by a batch's games."""
-        return (
-            np.concatenate([self.ids, ids]),
-            np.concatenate([self.mask, mask]),
-            tuple(np.concatenate([c, v]) for c, v in zip(self.values, values, strict=True)),
-        )
+    def joined(self, rows, mask) -> tuple[np.ndarray, np.ndarray]:
+        """``(rows, mask)`` of this game followed by a batch's games."""
+        return np.concatenate([self.rows, rows]), np.concatenate([self.mask, mask])
 
     @staticmethod
-    def largest(same: DistinctGames, ids, mask, values, computed, first: int = 0):
+    def largest(same: EqualGames, rows, mask, computed, first: int = 0):
         """The game of the largest group among the games ``first`` onwards of ``same``
         (groups of at least two), as a :class:`CarriedGame` whose ``computed`` is
-        ``computed(g)`` for that game g; None when every game is alone. ``ids``, ``mask``,
-        ``values`` are those ``same`` was found from."""
+        ``computed(g)`` for that game g; None when every game is alone. ``rows`` and
+        ``mask`` are those ``same`` was found from."""
         k = same.source.shape[1]
         src = same.source[first:]
         group = np.maximum(src, 0).max(axis=1) // k
@@ -226,8 +210,7 @@ class CarriedGame:
             return None
         g = int(same.games[best])
         return CarriedGame(
-            ids=np.asarray(ids)[g : g + 1].copy(),
+            rows=np.asarray(rows)[g : g + 1].copy(),
             mask=np.asarray(mask)[g : g + 1].copy(),
-            values=tuple(np.asarray(v)[g : g + 1].copy() for v in values),
             computed=np.array(computed(g), copy=True),
         )

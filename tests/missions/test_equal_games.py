@@ -12,7 +12,6 @@ import pytest
 
 from swarmgames.config import parse_config
 from swarmgames.game import LocalGameBatch, local_games
-from swarmgames.missions.coverage.distinct import distinct_games
 from swarmgames.missions.coverage.mission import build
 from tests.game.helpers import disk_snapshot
 
@@ -55,33 +54,10 @@ def test_shared_unary_equals_each_game_alone(floor, kernel, moved):
     batch, pot = _dense(9, floor, kernel)
     if moved:
         batch = _moved(batch, 4)
-    ids = 2 * np.asarray(batch.members) + batch.is_virtual
-    same = distinct_games(ids, batch.mask, batch.states, batch.next_states, batch.action_mask)
+    same = batch.equal_games
     assert same is not None and same.games.size == (2 if moved else 1)
     np.testing.assert_array_equal(pot.unary(batch), _alone(pot, batch))
     np.testing.assert_array_equal(pot.owner_unary(batch), _alone(pot, batch, owner_only=True))
-
-
-def test_games_with_other_robots_or_states_are_not_shared():
-    ids = np.array([[1, 2, -1], [2, 1, -1], [1, 2, 3], [1, 3, -1]])
-    mask = ids >= 0
-    states = np.zeros((4, 3, 2))
-    d = distinct_games(ids, mask, states)
-    assert d.games.tolist() == [0, 2, 3]  # game 1 is game 0 in another order
-    assert d.source[1].tolist() == [1, 0, -1]
-    states[1, 0, 0] = 0.5  # robot 2 seen elsewhere in game 1: no longer the same game
-    assert distinct_games(ids, mask, states) is None
-
-
-def test_repeated_rows_checks_equal_hashes_on_the_rows(monkeypatch):
-    import swarmgames.missions.coverage.distinct as distinct
-
-    rows = np.array([[-1, 1, 3], [-1, 2, 2], [-1, 1, 3]])
-    assert distinct._repeated_rows(rows) and not distinct._repeated_rows(rows[:2])
-    # Every weight 1 (the multiplier 0, then the odd bit): the hash is the plain sum, equal
-    # for the first two rows, so the rows themselves decide.
-    monkeypatch.setattr(distinct, "_COLUMN_MIX", np.uint64(0))
-    assert distinct._repeated_rows(rows) and not distinct._repeated_rows(rows[:2])
 
 
 def _source(batch, pot):
@@ -183,9 +159,9 @@ def test_the_next_batch_takes_the_carried_game_bit_for_bit(monkeypatch, moved):
         tables.append(None if games is None else len(games))
         return real_table(self, b, dtype, games)
 
-    def counted_grid(self, out, *args):
+    def counted_grid(self, stage, out, *args):
         grids.append(out.shape[0])
-        return real_grid(self, out, *args)
+        return real_grid(self, stage, out, *args)
 
     monkeypatch.setattr(type(pot), "_pair_table", counted_table)
     monkeypatch.setattr(type(pot), "_full_grid", counted_grid)
@@ -226,7 +202,8 @@ def test_the_ex_post_games_take_the_stages_field_and_its_floats(monkeypatch):
     stage = local_games(snap, 1, states, mission.action_model)
     actions = np.arange(n) % mission.action_model.n_actions
     nxt = np.asarray(stage.next_states)[np.arange(n), 0, actions]
-    expost = expost_games(broadcast(snap, 1, states).views(np.arange(n)), nxt, mission.action_model)
+    views = broadcast(snap, 1, states).views(np.arange(n))
+    expost = expost_games(views, nxt, mission.action_model).on(stage.stage)
     want = mission.potentials.owner_unary(expost)
     pot = build(parse_config({"swarm": {"n_robots": n}, "coverage": cov})).potentials
     pot.unary(stage)
