@@ -136,6 +136,33 @@ class CoverageConfig(Section):
         ),
     )
 
+    link_term: Literal["signal", "at_risk"] = Field(
+        "signal",
+        description=(
+            "The pairwise term: 'signal' = eq. 6, the link quality psi_R between every pair's "
+            "next positions (a pull towards every neighbour); 'at_risk' = the received-power "
+            "shortfall below network.radio.rx_threshold_dbm + link_margin_db of the pairs "
+            "linked now, weighted by link_cost_db (zero on links with margin to spare); no "
+            "unit."
+        ),
+    )
+    link_cost_db: float = Field(
+        0.1,
+        gt=0,
+        description=(
+            "With link_term = 'at_risk': what one dB of shortfall on one link costs, in dB of "
+            "expected ROI signal (like move_cost_db), dB per dB."
+        ),
+    )
+    link_margin_db: float = Field(
+        3.0,
+        ge=0,
+        description=(
+            "With link_term = 'at_risk': the power above the reception threshold a link "
+            "should keep, dB."
+        ),
+    )
+
     @model_validator(mode="after")
     def _covariance_positive_definite(self) -> CoverageConfig:
         if self.area_per_robot_m2 is not None:  # the covariance is derived: see derive()
@@ -153,7 +180,14 @@ class CoverageConfig(Section):
         return self
 
     def check_scenario(self, scenario) -> None:
-        """The pairwise crowding penalty is weighted by ``game.alpha_b``, which must be > 0."""
+        """The pairwise crowding penalty and the link term at risk are weighted by
+        ``game.alpha_b``, which must be > 0."""
+        if self.link_term == "at_risk" and scenario.game.alpha_b == 0:
+            raise ValueError(
+                "game.alpha_b must be > 0 for the link term at risk "
+                "(coverage.link_term = 'at_risk') (got game.alpha_b = 0); set "
+                "coverage.link_term = 'signal' or game.alpha_b > 0"
+            )
         crowding = self.separation_m > 0 and self.separation_cost_db > 0
         if crowding and self.separation_mode == "pairwise" and scenario.game.alpha_b == 0:
             raise ValueError(

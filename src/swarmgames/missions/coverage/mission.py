@@ -24,6 +24,7 @@ import numpy as np
 from swarmgames.errors import ConfigError
 from swarmgames.game.inertia import Inertia
 from swarmgames.missions.coverage.config import CoverageConfig
+from swarmgames.missions.coverage.links import LinkRisk
 from swarmgames.missions.coverage.lloyd import lloyd_actions
 from swarmgames.missions.coverage.potentials import CoveragePotentials
 from swarmgames.missions.coverage.roi import GaussianROI
@@ -31,6 +32,7 @@ from swarmgames.missions.coverage.signal import SignalModel
 from swarmgames.missions.motion import TakeOff, arena_for, uav_actions
 from swarmgames.missions.protocol import Baseline
 from swarmgames.missions.registry import MissionEntry
+from swarmgames.network.parameters import RadioParameters
 
 __all__ = ["ENTRY", "CoverageMission", "build"]
 
@@ -122,6 +124,12 @@ def build(config) -> CoverageMission:
             kernel=cov.kernel,
             separation_mode=cov.separation_mode,
             alpha_b=config.game.alpha_b,
+            link_risk=LinkRisk(
+                RadioParameters(**config.network.radio.model_dump()), cov.link_margin_db
+            )
+            if cov.link_term == "at_risk"
+            else None,
+            link_cost_db=cov.link_cost_db,
         )
     except ValueError as exc:
         raise ConfigError(f"coverage: {exc}") from None

@@ -79,6 +79,7 @@ import numpy as np
 from swarmgames.game.capabilities import PotentialCapabilities
 from swarmgames.game.equal import CarriedGame
 from swarmgames.game.rows import row_ids
+from swarmgames.missions.coverage.links import LINK_CHUNK_ELEMS, LinkRisk
 from swarmgames.missions.coverage.roi import GaussianROI
 from swarmgames.missions.coverage.signal import SignalModel
 from swarmgames.missions.coverage.window import (
@@ -197,6 +198,14 @@ class CoveragePotentials:
         kernel keeps across batches and stages (:class:`~swarmgames.game.kept.KeptRows`, in
         the :class:`~swarmgames.game.kept.RowTables` the stage hands over): a state is
         computed once while it stays there. The results do not depend on it.
+    link_risk : LinkRisk or None, default None
+        The pairwise term: None for eq. 6's link quality :math:`\\psi_R` between next
+        positions; a :class:`~swarmgames.missions.coverage.links.LinkRisk` for the
+        shortfall of the links at risk instead (:mod:`~swarmgames.missions.coverage.links`),
+        weighted by ``link_cost_db``.
+    link_cost_db : float, default 0.0
+        :math:`c_{link}`: what one dB of shortfall on one link costs, in the unary's units
+        (dB times the ROI's mass) (``link_risk`` set; > 0).
     signal_floor_dbm : float or None, default None
         Signals below this level count as the level in eq. 5, and each variable's unary is
         integrated only over the cells its actions can change, relative to what the other
@@ -231,6 +240,8 @@ class CoveragePotentials:
     alpha_b: float = 0.001
     kernel: str = "auto"
     signal_table_elems: int = 96_000_000
+    link_risk: LinkRisk | None = None
+    link_cost_db: float = 0.0
     last_integrate_s: float = field(default=0.0, init=False)
     #: Every optional form but the neighbourhood term.
     capabilities: ClassVar[PotentialCapabilities] = PotentialCapabilities(
@@ -249,6 +260,17 @@ class CoveragePotentials:
             )
         if not (np.isfinite(self.alpha_b) and self.alpha_b >= 0):
             raise ValueError(f"alpha_b must be >= 0 and finite (got {self.alpha_b})")
+        if self.link_risk is not None:
+            if not (np.isfinite(self.link_cost_db) and self.link_cost_db > 0):
+                raise ValueError(
+                    f"link_cost_db must be > 0 and finite for the link term at risk "
+                    f"(got {self.link_cost_db})"
+                )
+            if self.alpha_b == 0:
+                raise ValueError(
+                    "the link term at risk needs a pairwise weight > 0 (got alpha_b = 0, i.e. "
+                    "game.alpha_b = 0)"
+                )
         if self.separation_mode == "pairwise" and self._crowding_on and self.alpha_b == 0:
             raise ValueError(
                 "the pairwise crowding penalty needs a pairwise weight > 0 (got alpha_b = 0, "
@@ -543,14 +565,34 @@ class CoveragePotentials:
             gb = gb if games is None else games[gb]
             table[gb, gk, :, gl, :] -= (scale * pen).astype(out.dtype)
 
+    def _add_link_risk(self, table: np.ndarray, batch, games=None, first_only=False) -> None:
+        """Add the symmetrised link term at risk to ``table`` (B, K', A, K, A), in place:
+        :math:`-c_{link} m_{ROI} \\, \\mathrm{shortfall} / \\alpha_b` on the pairs linked now
+        (:meth:`~swarmgames.missions.coverage.links.LinkRisk.blocks`); ``games``: of those
+        games only (default all); ``first_only``: the owners' rows (K' = 1)."""
+        scale = self.link_cost_db * self.roi.mass / self.alpha_b
+        sub = batch if games is None else batch.select(games)
+        for gb, gk, gl, short in self.link_risk.blocks(sub, first_only=first_only):
+            gb = gb if games is None else np.asarray(games)[gb]
+            rows = 0 if first_only else gk
+            table[gb, rows, :, gl, :] -= (scale * short).astype(table.dtype)
+
     def pairwise(self, batch) -> np.ndarray:
         """:math:`\\phi_p(k, x_k, l, x_l)` of eq. 6, shape (B, K, K, A, A); 0 on the diagonal
         ``k == l`` and for padded variables or invalid actions. With the pairwise crowding
-        penalty on, :math:`\\phi_{sep} / \\alpha_b` is added (module notes)."""
+        penalty on, :math:`\\phi_{sep} / \\alpha_b` is added (module notes). With
+        ``link_risk``, the term at risk replaces eq. 6's
+        (:mod:`~swarmgames.missions.coverage.links`)."""
         mask = np.asarray(batch.mask, dtype=bool)
         amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
         nxt = np.where(amask[..., None], np.asarray(batch.next_states, dtype=float)[..., :3], 0.0)
         B, K, A = amask.shape
+        if self.link_risk is not None:
+            # The symmetrised table holds each ordered pair's term twice (both are equal).
+            table = self._pair_table(batch, np.dtype(np.float64)) / 2.0
+            ok = amask[:, :, None, :, None] & amask[:, None, :, None, :]
+            ok &= ~np.eye(K, dtype=bool)[None, :, :, None, None]
+            return np.where(ok, table.transpose(0, 1, 3, 2, 4), 0.0)
         out = np.zeros((B, K, K, A, A))
         step = max(1, self.chunk_elems // max(1, K * K * A * A))
         # One game larger than the chunk (the centralised game: K = N) in slices of k.
@@ -617,12 +659,15 @@ class CoveragePotentials:
         pair = 8.0 * _PAIR_COPIES * min(entries, max(self.chunk_elems / 4, k * a))
         if self.separation_m > 0 and self.separation_cost_db > 0:
             pair += crowding_bytes(entries)
+        if self.link_risk is not None:
+            # The computed table (never on demand) and the shortfall blocks' temporaries.
+            pair += 8.0 * entries + 8.0 * _PAIR_COPIES * min(entries, float(LINK_CHUNK_ELEMS))
         return unary, owner, pair
 
     def pair_on_demand(self, dtype) -> bool:
         """Whether :meth:`pair_source` gives a source for tables of ``dtype`` (float32 with
         the compiled kernel)."""
-        return np.dtype(dtype) == np.float32 and self._compiled
+        return np.dtype(dtype) == np.float32 and self._compiled and self.link_risk is None
 
     def held_sharing_min(self, dtype) -> int | None:
         """The valid entries from which a batch's equal games share one held table of
@@ -774,6 +819,14 @@ class CoveragePotentials:
             return None
         nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
         B, K, A = nxt.shape[:3]
+        if self.link_risk is not None:
+            out = np.zeros((B, A, K, A), dtype=dtype)
+            self._add_link_risk(out[:, None], batch, first_only=True)
+            if self._crowding_on and self.separation_mode == "pairwise":
+                scale = 2.0 * self.separation_cost_db * self.roi.mass / self.alpha_b
+                for gb, _, gl, pen in crowding_blocks(batch, self.separation_m, first_only=True):
+                    out[gb, :, gl, :] -= (scale * pen).astype(out.dtype)
+            return out
         pts = nxt.reshape(B, K * A, 3)
         out = np.empty((B, A, K * A), dtype=dtype)
         step = max(1, self.chunk_elems // 4 // max(1, A * K * A))
@@ -800,6 +853,12 @@ class CoveragePotentials:
         only): of those games only, the others' rows left unset."""
         nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
         B, K, A = nxt.shape[:3]
+        if self.link_risk is not None:
+            out = np.zeros((B, K * A, K * A), dtype=dtype)
+            self._add_link_risk(out.reshape(B, K, A, K, A), batch, games)
+            if self._crowding_on and self.separation_mode == "pairwise":
+                self._add_pair_crowding(out, batch, games)
+            return out.reshape(B, K, A, K, A)
         pts = nxt.reshape(B, K * A, 3)
         out = np.empty((B, K * A, K * A), dtype=dtype)
         step = max(1, self.chunk_elems // 4 // max(1, (K * A) ** 2))

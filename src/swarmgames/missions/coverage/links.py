@@ -1,0 +1,137 @@
+"""The link term at risk: the received-power shortfall of the radio links a move would weaken.
+
+Eq. 6 rewards every pair of a neighbourhood for the link quality between its next positions,
+:math:`\\psi_R(\\lVert S_k(x_k) - S_l(x_l) \\rVert)`: a pull towards every neighbour, summed over
+the neighbourhood, so it grows with its size and holds the swarm together even where every
+link is strong. The term at risk charges only the links that a joint move would bring near
+their loss (as the rendezvous mission does):
+
+.. math::
+
+    \\phi_p^{risk}(k, x_k, l, x_l) = -\\frac{c_{link}\\, m_{ROI}}{2 \\alpha_b}\\,
+        [P(d_{kl}) \\ge P_{th}]\\;
+        \\max\\bigl(0,\\; P_{th} + m - P(\\lVert S_k(x_k) - S_l(x_l) \\rVert)\\bigr)
+
+where :math:`d_{kl}` is the pair's distance now, :math:`P(d)` the mean received power of the
+network's radio model (Friis or log-distance, ns-3's formulas), :math:`P_{th}` its reception
+threshold, :math:`m` the margin and :math:`m_{ROI}` the ROI's mass (so that
+:math:`c_{link}`, ``coverage.link_cost_db``, is a cost in the unary's dB units per dB of
+shortfall, like the move cost). A pair that is not linked now costs nothing: the term keeps
+links, it does not make new ones; a link with more than :math:`m` dB to spare costs nothing
+either, whatever the neighbourhood's size.
+
+References
+----------
+.. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
+   Communication Networks", ICRA 2022 workshop (arXiv 2205.02203), eqs. 1 and 6.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from swarmgames.network.parameters import RadioParameters
+from swarmgames.network.propagation import PropagationModel, max_range
+
+__all__ = ["LINK_CHUNK_ELEMS", "LinkRisk"]
+
+#: Most shortfall entries (pairs × A²) computed at once.
+LINK_CHUNK_ELEMS = 2_000_000
+
+
+@dataclass(frozen=True)
+class LinkRisk:
+    """The received-power shortfall of the links that exist now, for every joint move.
+
+    Parameters
+    ----------
+    radio : RadioParameters
+        The network's radio (``network.radio``): its mean received power and reception
+        threshold decide which pairs are linked now and how much power a move leaves.
+    margin_db : float
+        m, the power above the threshold a link should keep, dB (>= 0).
+    """
+
+    radio: RadioParameters
+    margin_db: float
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.margin_db) and self.margin_db >= 0):
+            raise ValueError(f"link margin must be >= 0 dB and finite (got {self.margin_db})")
+        # The mean power alone decides, without shadowing or fading.
+        object.__setattr__(
+            self, "radio", replace(self.radio, shadowing_sigma_db=0.0, nakagami_m=None)
+        )
+
+    @property
+    def range_m(self) -> float:
+        """Distance up to which a pair is linked (mean power at the threshold), metres."""
+        return max_range(self.radio)
+
+    @property
+    def safe_m(self) -> float:
+        """Distance up to which a link keeps its margin (mean power at threshold + m),
+        metres."""
+        return max_range(replace(self.radio, rx_threshold_dbm=self.radio.rx_threshold_dbm
+                                 + self.margin_db))  # fmt: skip
+
+    def shortfall_db(self, distance: np.ndarray) -> np.ndarray:
+        """:math:`\\max(0, P_{th} + m - P(d))` at ``distance`` metres, dB."""
+        floor = self.radio.rx_threshold_dbm + self.margin_db
+        return np.maximum(0.0, floor - PropagationModel(self.radio).mean_rx_power(distance))
+
+    def blocks(self, batch, *, first_only: bool = False, max_elems: int = LINK_CHUNK_ELEMS):
+        """The shortfall of every pair of distinct valid variables of a game, neither a
+        virtual mean, that is linked now and that some joint move can bring below its
+        margin, for every pair of their actions, in chunks of pairs.
+
+        Only pairs linked now (distance at most :attr:`range_m`) and farther than
+        :attr:`safe_m` less twice the longest move of the batch can fall short, so only
+        their ``(A, A)`` blocks are computed; each pair's values do not depend on the
+        chunking.
+
+        Parameters
+        ----------
+        batch : LocalGameBatch
+            Uses ``mask``, ``is_virtual``, ``states``, ``next_states`` and ``action_mask``;
+            positions are the first three state columns.
+        first_only : bool, default False
+            Only the pairs whose first variable is variable 0 (the owner's rows).
+        max_elems : int, default LINK_CHUNK_ELEMS
+            Most entries ``P A²`` per chunk (at least one pair per chunk).
+
+        Yields
+        ------
+        games, first, second : ndarray of int, shape (P,)
+            Each pair as (game, variable k, variable l); both orders of a pair are listed.
+        shortfall : ndarray, shape (P, A, A)
+            ``shortfall[p, a, c]`` for k taking a and l taking c, dB (>= 0); values at
+            invalid actions are meaningless.
+        """
+        mask = np.asarray(batch.mask, dtype=bool)
+        states = np.asarray(batch.states, dtype=float)[..., :3]
+        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+        k, a = mask.shape[1], nxt.shape[2]
+        amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+        disp = np.linalg.norm(nxt - states[:, :, None, :], axis=-1)
+        s_max = float(disp[amask].max(initial=0.0))
+        # Radio links join robots: a virtual mean (eq. 3) stands for a neighbourhood, not a
+        # radio, so its pairs carry no link.
+        real = mask & ~np.asarray(batch.is_virtual, dtype=bool)
+        pairs = real[:, :, None] & real[:, None, :] & ~np.eye(k, dtype=bool)
+        if first_only:
+            pairs[:, 1:] = False
+        gb, gk, gl = np.nonzero(pairs)
+        gap = np.linalg.norm(states[gb, gk] - states[gb, gl], axis=-1)
+        at_risk = (gap <= self.range_m) & (gap > self.safe_m - 2.0 * s_max - 1e-9)
+        gb, gk, gl = gb[at_risk], gk[at_risk], gl[at_risk]
+        step = max(1, int(max_elems) // max(1, a * a))
+        for lo in range(0, gb.size, step):
+            cb, ck, cl = gb[lo : lo + step], gk[lo : lo + step], gl[lo : lo + step]
+            p, q = nxt[cb, ck], nxt[cb, cl]  # (P, A, 3)
+            d = np.square(p[:, :, None, 0] - q[:, None, :, 0])
+            for c in (1, 2):
+                d += np.square(p[:, :, None, c] - q[:, None, :, c])
+            yield cb, ck, cl, self.shortfall_db(np.sqrt(d, out=d))
