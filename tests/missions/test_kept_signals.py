@@ -109,3 +109,25 @@ def test_a_state_used_again_keeps_its_row_over_one_used_once():
 def test_kept_rows_reject_a_bad_bound(bad):
     with pytest.raises(ValueError, match="max_elems"):
         KeptRows(bad)
+
+
+def test_the_stage_rows_give_the_signals_the_values_give():
+    # Computing each stage row's signals once from the index alone gives the bits of
+    # comparing the rows' values.
+    from swarmgames.config.scaling import scaled_config
+    from swarmgames.game import local_games
+    from swarmgames.game.rows import row_ids
+    from swarmgames.sim.runner import build_mission
+    from tests.game.helpers import disk_snapshot
+
+    mission = build_mission(scaled_config(60))
+    pos = np.random.default_rng(2).uniform(-1000, 1000, size=(60, 2))
+    pos = np.c_[pos, np.full(60, 30.0)]
+    batch = local_games(disk_snapshot(pos[:, :2], 368.84), 2, pos, mission.action_model)
+    arrays = (batch.mask, batch.action_mask, batch.states, batch.next_states)
+    args = (RASTER, SIGNAL, -100.0, *arrays)
+    ids = row_ids(batch.members, batch.is_virtual)
+    by_values = compiled_windowed_unary(*args, softness_db=1.0, state_ids=ids)
+    by_rows = compiled_windowed_unary(*args, softness_db=1.0, state_ids=ids,
+                                      row_index=batch.rows)  # fmt: skip
+    assert np.array_equal(by_rows, by_values)

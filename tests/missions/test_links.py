@@ -1,10 +1,11 @@
 """The coverage mission's link term at risk against a hand computation.
 
 The reference is the definition in swarmgames.missions.coverage.links (the rendezvous
-mission's link-budget shortfall, here in the coverage game): for a pair linked now, the
-mean received power of ns-3's log-distance or Friis model at the next distance, below the
-reception threshold plus the margin, costs ``link_cost_db * roi.mass / alpha_b`` per dB in
-the symmetrised table; a pair not linked now, or one with margin to spare, costs nothing.
+mission's link-budget shortfall, charged for what a move adds to it): for a pair linked now,
+the growth of the shortfall of the mean received power (ns-3's log-distance or Friis model)
+below the reception threshold plus the margin costs ``link_cost_db * roi.mass / alpha_b`` per
+dB in the symmetrised table; a pair not linked now, or a move that keeps the margin or does
+not weaken the link, costs nothing.
 """
 
 from __future__ import annotations
@@ -50,11 +51,13 @@ def test_a_pair_near_its_range_pays_its_shortfall_and_others_nothing():
     for a in range(nxt.shape[2]):
         for c in range(nxt.shape[2]):
             d = np.linalg.norm(nxt[b, 0, a] - nxt[b, 1, c])
-            want = -scale * max(0.0, -82.0 + 3.0 - float(power(d)))
+            now = max(0.0, -82.0 + 3.0 - float(power(350.0)))
+            want = -scale * max(0.0, max(0.0, -82.0 + 3.0 - float(power(d))) - now)
             assert table[b, 0, a, 1, c] == pytest.approx(want, rel=1e-12, abs=1e-9)
     assert np.all(table[b, 0, :, 2, :] == 0.0)  # margin to spare
     assert np.all(table[b, 1, :, 2, :] == 0.0)  # not linked now: no pull to make a link
-    assert table[b, 0, 0, 1, 0] < 0.0  # staying 350 m apart is already short
+    assert table[b, 0, 0, 1, 0] == 0.0  # staying 350 m apart: short, but no shorter
+    assert table.min() < 0.0
 
 
 def test_the_table_forms_agree():
@@ -98,7 +101,8 @@ def test_the_payoff_charges_a_move_that_weakens_a_link():
     pair = np.asarray(pay.pair)[0]  # robot 0's game, weighted by alpha_b
     nxt = np.asarray(batch.next_states)[0, :, :, 0]
     away = int(np.argmin(nxt[0]))  # robot 0's move farthest from robot 1 (to -x)
-    assert pair[0, away, 1, 0] < pair[0, 0, 1, 0] <= 0.0
+    toward = int(np.argmax(nxt[0]))
+    assert pair[0, away, 1, 0] < pair[0, 0, 1, 0] == pair[0, toward, 1, 0] == 0.0
 
 
 @pytest.mark.parametrize(

@@ -385,6 +385,7 @@ def compiled_windowed_unary(
     chunk_elems: int = 2_000_000,
     rows: np.ndarray | None = None,
     signals: KeptRows | None = None,
+    row_index: np.ndarray | None = None,
 ) -> np.ndarray:
     """:math:`\\tilde\\phi_u` of every game, variable and action, by the fused kernel.
 
@@ -409,6 +410,11 @@ def compiled_windowed_unary(
         A table of action signals kept across calls (with ``state_ids``): a state found
         there with the same values and window is not computed again
         (:mod:`~swarmgames.game.kept`). The result is the same bit for bit.
+    row_index : (B, K) int, optional
+        The stage row of every variable (``LocalGameBatch.rows``): variables of equal rows
+        hold equal states, next states and valid actions, so their actions' signals are
+        computed once from the index alone. Default: found by comparing those values
+        (:func:`~swarmgames.game.rows.shared_rows`). The result is the same bit for bit.
 
     Returns
     -------
@@ -462,7 +468,13 @@ def compiled_windowed_unary(
     pos, rk = np.nonzero(sub)
     rb = order[pos]
     row_ids = ids[rb, rk].astype(np.int64)
-    slot, first = shared_rows(row_ids, states[rb, rk], nxt[rb, rk], amask[rb, rk])
+    if row_index is None:
+        slot, first = shared_rows(row_ids, states[rb, rk], nxt[rb, rk], amask[rb, rk])
+    else:
+        _, first, slot = np.unique(
+            np.asarray(row_index)[rb, rk], return_index=True, return_inverse=True
+        )
+        slot = slot.reshape(-1)
     # The kept table of signals needs small non-negative ids (a direct-address index).
     keep = signals is not None and state_ids is not None and rb.size > 0
     keep = keep and row_ids.min() >= 0 and row_ids.max() < _MAX_KEPT_ID

@@ -1,24 +1,28 @@
-"""The link term at risk: the received-power shortfall of the radio links a move would weaken.
+"""The link term at risk: what a joint move takes from the radio links near their loss.
 
 Eq. 6 rewards every pair of a neighbourhood for the link quality between its next positions,
 :math:`\\psi_R(\\lVert S_k(x_k) - S_l(x_l) \\rVert)`: a pull towards every neighbour, summed over
 the neighbourhood, so it grows with its size and holds the swarm together even where every
-link is strong. The term at risk charges only the links that a joint move would bring near
-their loss (as the rendezvous mission does):
+link is strong. The term at risk charges only what a joint move takes from the links near
+their loss:
 
 .. math::
 
     \\phi_p^{risk}(k, x_k, l, x_l) = -\\frac{c_{link}\\, m_{ROI}}{2 \\alpha_b}\\,
         [P(d_{kl}) \\ge P_{th}]\\;
-        \\max\\bigl(0,\\; P_{th} + m - P(\\lVert S_k(x_k) - S_l(x_l) \\rVert)\\bigr)
+        \\max\\bigl(0,\\; s(\\lVert S_k(x_k) - S_l(x_l) \\rVert) - s(d_{kl})\\bigr),
+        \\qquad s(d) = \\max\\bigl(0,\\; P_{th} + m - P(d)\\bigr)
 
 where :math:`d_{kl}` is the pair's distance now, :math:`P(d)` the mean received power of the
 network's radio model (Friis or log-distance, ns-3's formulas), :math:`P_{th}` its reception
-threshold, :math:`m` the margin and :math:`m_{ROI}` the ROI's mass (so that
-:math:`c_{link}`, ``coverage.link_cost_db``, is a cost in the unary's dB units per dB of
-shortfall, like the move cost). A pair that is not linked now costs nothing: the term keeps
-links, it does not make new ones; a link with more than :math:`m` dB to spare costs nothing
-either, whatever the neighbourhood's size.
+threshold, :math:`m` the margin, :math:`s` the shortfall below the threshold plus the margin
+and :math:`m_{ROI}` the ROI's mass (so that :math:`c_{link}`, ``coverage.link_cost_db``, is a
+cost in the unary's dB units per dB of shortfall, like the move cost). A pair that is not
+linked now costs nothing, and neither does a move that keeps a link's margin, nor one that
+leaves a link short but no shorter than it is: the term keeps links from weakening, it does
+not pull robots together (charging the shortfall itself would pull every linked pair inside
+the margin's distance, and each new link with it, until the swarm contracts) and does not
+grow with the neighbourhood.
 
 References
 ----------
@@ -83,9 +87,9 @@ class LinkRisk:
         return np.maximum(0.0, floor - PropagationModel(self.radio).mean_rx_power(distance))
 
     def blocks(self, batch, *, first_only: bool = False, max_elems: int = LINK_CHUNK_ELEMS):
-        """The shortfall of every pair of distinct valid variables of a game, neither a
-        virtual mean, that is linked now and that some joint move can bring below its
-        margin, for every pair of their actions, in chunks of pairs.
+        """How much every joint move adds to the shortfall of every pair of distinct valid
+        variables of a game, neither a virtual mean, that is linked now and that some joint
+        move can bring below its margin, in chunks of pairs.
 
         Only pairs linked now (distance at most :attr:`range_m`) and farther than
         :attr:`safe_m` less twice the longest move of the batch can fall short, so only
@@ -106,9 +110,10 @@ class LinkRisk:
         ------
         games, first, second : ndarray of int, shape (P,)
             Each pair as (game, variable k, variable l); both orders of a pair are listed.
-        shortfall : ndarray, shape (P, A, A)
-            ``shortfall[p, a, c]`` for k taking a and l taking c, dB (>= 0); values at
-            invalid actions are meaningless.
+        loss : ndarray, shape (P, A, A)
+            ``loss[p, a, c]``: how much the shortfall grows when k takes a and l takes c,
+            :math:`\\max(0, s(d') - s(d))`, dB (>= 0); values at invalid actions are
+            meaningless.
         """
         mask = np.asarray(batch.mask, dtype=bool)
         states = np.asarray(batch.states, dtype=float)[..., :3]
@@ -126,7 +131,7 @@ class LinkRisk:
         gb, gk, gl = np.nonzero(pairs)
         gap = np.linalg.norm(states[gb, gk] - states[gb, gl], axis=-1)
         at_risk = (gap <= self.range_m) & (gap > self.safe_m - 2.0 * s_max - 1e-9)
-        gb, gk, gl = gb[at_risk], gk[at_risk], gl[at_risk]
+        gb, gk, gl, gap = gb[at_risk], gk[at_risk], gl[at_risk], gap[at_risk]
         step = max(1, int(max_elems) // max(1, a * a))
         for lo in range(0, gb.size, step):
             cb, ck, cl = gb[lo : lo + step], gk[lo : lo + step], gl[lo : lo + step]
@@ -134,4 +139,7 @@ class LinkRisk:
             d = np.square(p[:, :, None, 0] - q[:, None, :, 0])
             for c in (1, 2):
                 d += np.square(p[:, :, None, c] - q[:, None, :, c])
-            yield cb, ck, cl, self.shortfall_db(np.sqrt(d, out=d))
+            now = self.shortfall_db(gap[lo : lo + step])[:, None, None]
+            worse = self.shortfall_db(np.sqrt(d, out=d))
+            np.subtract(worse, now, out=worse)
+            yield cb, ck, cl, np.maximum(worse, 0.0, out=worse)

@@ -325,8 +325,10 @@ class CoveragePotentials:
         all); ``rows`` (B, K) bool: only those variables (the windowed kernel; others 0)."""
         if self.signal_floor_dbm is not None:
             ids = row_ids(batch.members, batch.is_virtual)
-            ids = ids if games is None else ids[games]
-            return self._windowed(batch.stage, mask, amask, states, nxt, ids, rows=rows)
+            index = batch.rows
+            if games is not None:
+                ids, index = ids[games], index[games]
+            return self._windowed(batch.stage, mask, amask, states, nxt, ids, index, rows)
         out = np.zeros(amask.shape)
         self._full_grid(batch.stage, out, mask, amask, states, nxt)
         return out
@@ -389,10 +391,11 @@ class CoveragePotentials:
         out[~amask[:, 0]] = 0.0
         return out
 
-    def _windowed(self, stage, mask, amask, states, nxt, ids, rows=None) -> np.ndarray:
+    def _windowed(self, stage, mask, amask, states, nxt, ids, index, rows=None) -> np.ndarray:
         """The unary over each variable's window of cells (``signal_floor_dbm`` set); the
-        compiled kernel keeps the signals of states' actions in the run's table
-        (``stage.kept``, when the stage has one)."""
+        compiled kernel computes each stage row's action signals once (``index``, the
+        rows of the variables) and keeps them in the run's table (``stage.kept``, when the
+        stage has one)."""
         a = self.roi.cell_m
         reach = np.sqrt(floor_distance_sq(self.signal, self.signal_floor_dbm))
         r = int(np.ceil((reach + max_move(states, nxt, amask)) / a)) + 1
@@ -417,6 +420,7 @@ class CoveragePotentials:
                 chunk_elems=self.chunk_elems // 2,
                 rows=rows,
                 signals=signals,
+                row_index=index,
             )
         return windowed_unary(
             self._raster,
