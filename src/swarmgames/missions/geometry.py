@@ -22,6 +22,7 @@ __all__ = [
     "crowding_bytes",
     "link_components",
     "link_pairs",
+    "pair_distances",
 ]
 
 
@@ -98,6 +99,62 @@ def crowding_bytes(entries: float) -> float:
     return min(entries, CROWDING_CHUNK_ELEMS) * 8.0 * CROWDING_COPIES
 
 
+def pair_distances(batch, near, max_elems: int, *, first_only: bool = False, real: bool = False):
+    """The distances between the next positions of the pairs of distinct valid variables of
+    a game that ``near`` selects, for every pair of their actions, in chunks of pairs.
+
+    Parameters
+    ----------
+    batch : LocalGameBatch
+        Uses ``mask``, ``states``, ``next_states`` and ``action_mask`` (and ``is_virtual``
+        with ``real``); positions are the first three state columns.
+    near : callable
+        ``near(gap, s_max)``: which pairs to keep (bool, (P,)) from their current distances
+        ``gap`` (P,) and the longest move ``s_max`` of the batch, metres.
+    max_elems : int
+        Most entries ``P A²`` per chunk (at least one pair per chunk).
+    first_only : bool, default False
+        Only the pairs whose first variable is variable 0 (the owner's rows).
+    real : bool, default False
+        Only pairs of robots (no virtual mean).
+
+    Yields
+    ------
+    games, first, second : ndarray of int, shape (P,)
+        Each pair as (game, variable k, variable l); both orders of a pair are listed, and
+        every pair is in exactly one chunk.
+    gap : ndarray, shape (P,)
+        Their current distances, metres.
+    distance : ndarray, shape (P, A, A)
+        ``distance[p, a, c]``, metres, for k taking a and l taking c, summed x, y, z from
+        left to right (np.linalg.norm's values, bit for bit, without its (P, A, A, 3)
+        temporaries); a new array the caller may overwrite.
+    """
+    mask = np.asarray(batch.mask, dtype=bool)
+    states = np.asarray(batch.states, dtype=float)[..., :3]
+    nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+    k, a = mask.shape[1], nxt.shape[2]
+    amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+    disp = np.linalg.norm(nxt - states[:, :, None, :], axis=-1)
+    s_max = float(disp[amask].max(initial=0.0))
+    var = mask & ~np.asarray(batch.is_virtual, dtype=bool) if real else mask
+    pairs = var[:, :, None] & var[:, None, :] & ~np.eye(k, dtype=bool)
+    if first_only:
+        pairs[:, 1:] = False
+    gb, gk, gl = np.nonzero(pairs)
+    gap = np.linalg.norm(states[gb, gk] - states[gb, gl], axis=-1)
+    keep = near(gap, s_max)
+    gb, gk, gl, gap = gb[keep], gk[keep], gl[keep], gap[keep]
+    step = max(1, int(max_elems) // max(1, a * a))
+    for lo in range(0, gb.size, step):
+        cb, ck, cl = gb[lo : lo + step], gk[lo : lo + step], gl[lo : lo + step]
+        p, q = nxt[cb, ck], nxt[cb, cl]  # (P, A, 3)
+        d = np.square(p[:, :, None, 0] - q[:, None, :, 0])
+        for c in (1, 2):
+            d += np.square(p[:, :, None, c] - q[:, None, :, c])
+        yield cb, ck, cl, gap[lo : lo + step], np.sqrt(d, out=d)
+
+
 def crowding_blocks(
     batch, distance_m: float, max_elems: int = CROWDING_CHUNK_ELEMS, *, first_only: bool = False
 ):
@@ -106,11 +163,11 @@ def crowding_blocks(
     other, for every pair of their actions, in chunks of pairs.
 
     Only pairs whose current positions are closer than :math:`d + 2 s` (``s`` the longest
-    move of the batch) can be penalised, so only their ``(A, A)`` blocks are computed: the
-    cost grows with the number of close pairs, not with K². The blocks come in chunks of at
-    most ``max_elems`` entries, so a dense neighbourhood (every pair close, K = 300) needs
-    tens of megabytes, not the ``B K² A²``-sized temporaries of one block; each pair's values
-    do not depend on the chunking.
+    move of the batch) can be penalised, so only their ``(A, A)`` blocks are computed
+    (:func:`pair_distances`): the cost grows with the number of close pairs, not with K².
+    The blocks come in chunks of at most ``max_elems`` entries, so a dense neighbourhood
+    (every pair close, K = 300) needs tens of megabytes, not the ``B K² A²``-sized
+    temporaries of one block; each pair's values do not depend on the chunking.
 
     Parameters
     ----------
@@ -134,30 +191,11 @@ def crowding_blocks(
         ``penalty[p, a, c]`` for k taking a and l taking c, in [0, 1]; values at invalid
         actions are meaningless.
     """
-    mask = np.asarray(batch.mask, dtype=bool)
-    states = np.asarray(batch.states, dtype=float)[..., :3]
-    nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
-    k, a = mask.shape[1], nxt.shape[2]
-    amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
-    disp = np.linalg.norm(nxt - states[:, :, None, :], axis=-1)
-    s_max = float(disp[amask].max(initial=0.0))
-    pairs = mask[:, :, None] & mask[:, None, :] & ~np.eye(k, dtype=bool)
-    if first_only:
-        pairs[:, 1:] = False
-    gb, gk, gl = np.nonzero(pairs)
-    gap = np.linalg.norm(states[gb, gk] - states[gb, gl], axis=-1)
-    near = gap < distance_m + 2.0 * s_max + 1e-9
-    gb, gk, gl = gb[near], gk[near], gl[near]
-    step = max(1, int(max_elems) // max(1, a * a))
-    for lo in range(0, gb.size, step):
-        cb, ck, cl = gb[lo : lo + step], gk[lo : lo + step], gl[lo : lo + step]
-        p, q = nxt[cb, ck], nxt[cb, cl]  # (P, A, 3)
-        # |p - q| summed x, y, z from left to right: np.linalg.norm's values, bit for bit,
-        # without its (P, A, A, 3) temporaries.
-        d = np.square(p[:, :, None, 0] - q[:, None, :, 0])
-        for c in (1, 2):
-            d += np.square(p[:, :, None, c] - q[:, None, :, c])
-        np.sqrt(d, out=d)
+
+    def near(gap, s_max):
+        return gap < distance_m + 2.0 * s_max + 1e-9
+
+    for cb, ck, cl, _, d in pair_distances(batch, near, max_elems, first_only=first_only):
         d /= distance_m
         np.subtract(1.0, d, out=d)
         np.maximum(d, 0.0, out=d)

@@ -36,6 +36,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from swarmgames.missions.geometry import pair_distances
 from swarmgames.network.parameters import RadioParameters
 from swarmgames.network.propagation import PropagationModel, max_range
 
@@ -115,31 +116,14 @@ class LinkRisk:
             :math:`\\max(0, s(d') - s(d))`, dB (>= 0); values at invalid actions are
             meaningless.
         """
-        mask = np.asarray(batch.mask, dtype=bool)
-        states = np.asarray(batch.states, dtype=float)[..., :3]
-        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
-        k, a = mask.shape[1], nxt.shape[2]
-        amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
-        disp = np.linalg.norm(nxt - states[:, :, None, :], axis=-1)
-        s_max = float(disp[amask].max(initial=0.0))
-        # Radio links join robots: a virtual mean (eq. 3) stands for a neighbourhood, not a
-        # radio, so its pairs carry no link.
-        real = mask & ~np.asarray(batch.is_virtual, dtype=bool)
-        pairs = real[:, :, None] & real[:, None, :] & ~np.eye(k, dtype=bool)
-        if first_only:
-            pairs[:, 1:] = False
-        gb, gk, gl = np.nonzero(pairs)
-        gap = np.linalg.norm(states[gb, gk] - states[gb, gl], axis=-1)
-        at_risk = (gap <= self.range_m) & (gap > self.safe_m - 2.0 * s_max - 1e-9)
-        gb, gk, gl, gap = gb[at_risk], gk[at_risk], gl[at_risk], gap[at_risk]
-        step = max(1, int(max_elems) // max(1, a * a))
-        for lo in range(0, gb.size, step):
-            cb, ck, cl = gb[lo : lo + step], gk[lo : lo + step], gl[lo : lo + step]
-            p, q = nxt[cb, ck], nxt[cb, cl]  # (P, A, 3)
-            d = np.square(p[:, :, None, 0] - q[:, None, :, 0])
-            for c in (1, 2):
-                d += np.square(p[:, :, None, c] - q[:, None, :, c])
-            now = self.shortfall_db(gap[lo : lo + step])[:, None, None]
-            worse = self.shortfall_db(np.sqrt(d, out=d))
+        range_m, safe_m = self.range_m, self.safe_m
+
+        def near(gap, s_max):
+            return (gap <= range_m) & (gap > safe_m - 2.0 * s_max - 1e-9)
+
+        blocks = pair_distances(batch, near, max_elems, first_only=first_only, real=True)
+        for cb, ck, cl, gap, d in blocks:
+            now = self.shortfall_db(gap)[:, None, None]
+            worse = self.shortfall_db(d)
             np.subtract(worse, now, out=worse)
             yield cb, ck, cl, np.maximum(worse, 0.0, out=worse)
