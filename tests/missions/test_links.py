@@ -126,3 +126,23 @@ def test_bad_link_settings_are_one_line(fields, message):
 def test_link_risk_rejects_a_negative_margin():
     with pytest.raises(ValueError, match="link margin must be >= 0 dB"):
         LinkRisk(RadioParameters(), -1.0)
+
+
+def test_without_a_link_term_the_pairwise_term_is_the_crowding_alone():
+    off = _mission(link_term="off", separation_cost_db=0.1)
+    sig = _mission(link_term="signal", separation_cost_db=0.1)
+    bare = _mission(link_term="off")
+    _, batch = _games(off, [0.0, 30.0, 340.0])
+    table = off.potentials.pair_table(batch)
+    assert np.all(bare.potentials.pair_table(batch) == 0.0)
+    assert table.min() < 0.0  # robots 0 and 1 are 30 m apart: crowded
+    # The crowding part of eq. 6's table, entry by entry.
+    crowd = sig.potentials.pair_table(batch) - _mission(link_term="signal").potentials.pair_table(
+        batch
+    )
+    valid = np.asarray(batch.action_mask)
+    ok = valid[:, :, :, None, None] & valid[:, None, None, :, :]
+    ok &= ~np.eye(batch.n_vars, dtype=bool)[None, :, None, :, None]
+    np.testing.assert_allclose(table[ok], crowd[ok], atol=1e-9)
+    owner = off.potentials.owner_pair_table(batch)
+    assert np.array_equal(owner[ok[:, 0]], table[:, 0][ok[:, 0]])

@@ -136,14 +136,15 @@ class CoverageConfig(Section):
         ),
     )
 
-    link_term: Literal["signal", "at_risk"] = Field(
+    link_term: Literal["signal", "at_risk", "off"] = Field(
         "signal",
         description=(
             "The pairwise term: 'signal' = eq. 6, the link quality psi_R between every pair's "
             "next positions (a pull towards every neighbour); 'at_risk' = the received-power "
             "shortfall below network.radio.rx_threshold_dbm + link_margin_db of the pairs "
-            "linked now, weighted by link_cost_db (zero on links with margin to spare); no "
-            "unit."
+            "linked now that a move adds, weighted by link_cost_db (zero on links with margin "
+            "to spare); 'off' = no link term (the pairwise term is the crowding penalty "
+            "alone); no unit."
         ),
     )
     link_cost_db: float = Field(

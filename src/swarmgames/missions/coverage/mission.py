@@ -124,6 +124,7 @@ def build(config) -> CoverageMission:
             kernel=cov.kernel,
             separation_mode=cov.separation_mode,
             alpha_b=config.game.alpha_b,
+            link_term=cov.link_term,
             link_risk=LinkRisk(
                 RadioParameters(**config.network.radio.model_dump()), cov.link_margin_db
             )

@@ -90,10 +90,13 @@ from swarmgames.missions.coverage.window import (
 )
 from swarmgames.missions.geometry import crowding_blocks, crowding_bytes
 
-__all__ = ["KERNELS", "CoveragePotentials"]
+__all__ = ["KERNELS", "LINK_TERMS", "CoveragePotentials"]
 
 #: Values of ``CoveragePotentials(kernel=...)`` (``coverage.kernel``).
 KERNELS = ("auto", "compiled", "numpy")
+
+#: Values of ``CoveragePotentials(link_term=...)`` (``coverage.link_term``).
+LINK_TERMS = ("signal", "at_risk", "off")
 
 #: The integral's float32 temporaries per chunk entry and the pair table's float64
 #: temporaries per entry of its blocks (a quarter of the chunk), for :meth:`stage_bytes`.
@@ -198,11 +201,13 @@ class CoveragePotentials:
         kernel keeps across batches and stages (:class:`~swarmgames.game.kept.KeptRows`, in
         the :class:`~swarmgames.game.kept.RowTables` the stage hands over): a state is
         computed once while it stays there. The results do not depend on it.
+    link_term : {"signal", "at_risk", "off"}, default "signal"
+        The pairwise link term: eq. 6's link quality :math:`\\psi_R` between next
+        positions; what a move takes from the links at risk
+        (:mod:`~swarmgames.missions.coverage.links`, ``link_risk``, weighted by
+        ``link_cost_db``); or none (the pairwise term is then the crowding penalty alone).
     link_risk : LinkRisk or None, default None
-        The pairwise term: None for eq. 6's link quality :math:`\\psi_R` between next
-        positions; a :class:`~swarmgames.missions.coverage.links.LinkRisk` for the
-        shortfall of the links at risk instead (:mod:`~swarmgames.missions.coverage.links`),
-        weighted by ``link_cost_db``.
+        The radio and margin of the link term at risk (``link_term = "at_risk"``).
     link_cost_db : float, default 0.0
         :math:`c_{link}`: what one dB of shortfall on one link costs, in the unary's units
         (dB times the ROI's mass) (``link_risk`` set; > 0).
@@ -240,6 +245,7 @@ class CoveragePotentials:
     alpha_b: float = 0.001
     kernel: str = "auto"
     signal_table_elems: int = 96_000_000
+    link_term: str = "signal"
     link_risk: LinkRisk | None = None
     link_cost_db: float = 0.0
     last_integrate_s: float = field(default=0.0, init=False)
@@ -260,6 +266,13 @@ class CoveragePotentials:
             )
         if not (np.isfinite(self.alpha_b) and self.alpha_b >= 0):
             raise ValueError(f"alpha_b must be >= 0 and finite (got {self.alpha_b})")
+        if self.link_term not in LINK_TERMS:
+            raise ValueError(
+                f"link_term must be one of {', '.join(map(repr, LINK_TERMS))} "
+                f"(got {self.link_term!r})"
+            )
+        if (self.link_term == "at_risk") != (self.link_risk is not None):
+            raise ValueError("link_risk must be given with link_term = 'at_risk', and only then")
         if self.link_risk is not None:
             if not (np.isfinite(self.link_cost_db) and self.link_cost_db > 0):
                 raise ValueError(
@@ -585,13 +598,13 @@ class CoveragePotentials:
         """:math:`\\phi_p(k, x_k, l, x_l)` of eq. 6, shape (B, K, K, A, A); 0 on the diagonal
         ``k == l`` and for padded variables or invalid actions. With the pairwise crowding
         penalty on, :math:`\\phi_{sep} / \\alpha_b` is added (module notes). With
-        ``link_risk``, the term at risk replaces eq. 6's
+        ``link_term`` other than ``"signal"``, the term at risk or none replaces eq. 6's
         (:mod:`~swarmgames.missions.coverage.links`)."""
         mask = np.asarray(batch.mask, dtype=bool)
         amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
         nxt = np.where(amask[..., None], np.asarray(batch.next_states, dtype=float)[..., :3], 0.0)
         B, K, A = amask.shape
-        if self.link_risk is not None:
+        if self.link_term != "signal":
             # The symmetrised table holds each ordered pair's term twice (both are equal).
             table = self._pair_table(batch, np.dtype(np.float64)) / 2.0
             ok = amask[:, :, None, :, None] & amask[:, None, :, None, :]
@@ -671,7 +684,7 @@ class CoveragePotentials:
     def pair_on_demand(self, dtype) -> bool:
         """Whether :meth:`pair_source` gives a source for tables of ``dtype`` (float32 with
         the compiled kernel)."""
-        return np.dtype(dtype) == np.float32 and self._compiled and self.link_risk is None
+        return np.dtype(dtype) == np.float32 and self._compiled and self.link_term == "signal"
 
     def held_sharing_min(self, dtype) -> int | None:
         """The valid entries from which a batch's equal games share one held table of
@@ -823,9 +836,10 @@ class CoveragePotentials:
             return None
         nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
         B, K, A = nxt.shape[:3]
-        if self.link_risk is not None:
+        if self.link_term != "signal":
             out = np.zeros((B, A, K, A), dtype=dtype)
-            self._add_link_risk(out[:, None], batch, first_only=True)
+            if self.link_risk is not None:
+                self._add_link_risk(out[:, None], batch, first_only=True)
             if self._crowding_on and self.separation_mode == "pairwise":
                 scale = 2.0 * self.separation_cost_db * self.roi.mass / self.alpha_b
                 for gb, _, gl, pen in crowding_blocks(batch, self.separation_m, first_only=True):
@@ -857,9 +871,10 @@ class CoveragePotentials:
         only): of those games only, the others' rows left unset."""
         nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
         B, K, A = nxt.shape[:3]
-        if self.link_risk is not None:
+        if self.link_term != "signal":
             out = np.zeros((B, K * A, K * A), dtype=dtype)
-            self._add_link_risk(out.reshape(B, K, A, K, A), batch, games)
+            if self.link_risk is not None:
+                self._add_link_risk(out.reshape(B, K, A, K, A), batch, games)
             if self._crowding_on and self.separation_mode == "pairwise":
                 self._add_pair_crowding(out, batch, games)
             return out.reshape(B, K, A, K, A)
