@@ -37,9 +37,19 @@ def test_preset_validates_at_the_benchmark_density():
     assert cfg.mission.signal_floor_dbm == -100.0 and cfg.game.dtype == "float32"
     assert _area_per_robot(cfg) == pytest.approx((70_000.0, 70_000.0), rel=1e-12)
     assert cfg.swarm.start_center_m == cfg.mission.roi_mean_m == (0.0, 0.0)
-    # The benchmark's scenario of 1 000 UAVs, but for the run's length, name and threads.
+    # The benchmark's scenario of 1 000 UAVs, but for the run's length, name and threads, and
+    # the move cost, link weight and virtual means of tests/missions/test_share_weights.py.
     bench = scaled_config(1000, workers=2)
-    assert cfg == bench.with_overrides({"sim.duration_s": 60.0, "name": "coverage-large"})
+    assert (
+        cfg.mission.model_copy(
+            update={"move_cost_db": 0.01, "move_cost_share_db": None, "alpha_b_share": None}
+        )
+        == bench.mission
+    )
+    assert cfg.game.model_copy(update={"alpha_b": 0.001, "virtual_mean": "eq3"}) == bench.game
+    assert cfg.model_copy(update={"mission": bench.mission, "game": bench.game}) == (
+        bench.with_overrides({"sim.duration_s": 60.0, "name": "coverage-large"})
+    )
 
 
 @pytest.mark.parametrize("via", ["set", "with_overrides"])
@@ -67,8 +77,9 @@ def test_the_preset_round_trips_through_toml_and_data():
     assert parse_config(to_data(cfg)) == cfg
     assert "# roi_cov_m2 = [[" in to_toml(cfg, annotated=True)  # shown, as derived
     assert cfg.derived_fields() == {
-        "mission": ("roi_cov_m2",),
+        "mission": ("roi_cov_m2", "move_cost_db"),
         "swarm": ("start_center_m", "start_radius_m"),
+        "game": ("alpha_b",),
     }
 
 

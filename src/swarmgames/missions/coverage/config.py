@@ -31,6 +31,14 @@ class CoverageConfig(Section):
     ``area_per_robot_m2`` keeps the swarm's density whatever its size: the ROI covariance and
     the take-off disc are then derived from ``swarm.n_robots`` when the scenario is
     validated (:meth:`derive`), instead of being fixed numbers.
+
+    ``move_cost_share_db`` and ``alpha_b_share`` state the move cost and the pairwise weight
+    per UAV share of the ROI, so that they keep their balance against the coverage term
+    whatever the swarm's size: eq. 5 integrates over the ROI's whole probability mass m, of
+    which a UAV covers about m / N, so what one move gains falls as 1/N at constant density
+    while a fixed move cost and a fixed link weight do not (docs/coverage.md, "What limits
+    coverage at scale"). With them set, ``move_cost_db = move_cost_share_db / N`` and
+    ``game.alpha_b = alpha_b_share / N`` are derived at validation (:meth:`derive`).
     """
 
     roi_mean_m: tuple[Coordinate, Coordinate] = Field(
@@ -103,6 +111,28 @@ class CoverageConfig(Section):
         description=(
             "Cost of one move in the unary potential, dB of expected ROI signal; not in the "
             "paper (0 = eq. 5 exactly); a small cost lets the swarm settle, dB."
+        ),
+    )
+
+    move_cost_share_db: float | None = Field(
+        None,
+        ge=0,
+        description=(
+            "Move cost per UAV share of the ROI: when set, move_cost_db = this / "
+            "swarm.n_robots (a UAV's share of the ROI mass is 1/N of it, and so is what one "
+            "of its moves gains), so the cost keeps its balance against a move's gain at any "
+            "swarm size; mutually exclusive with move_cost_db (None = move_cost_db as given), "
+            "dB."
+        ),
+    )
+    alpha_b_share: float | None = Field(
+        None,
+        ge=0,
+        description=(
+            "Pairwise weight per UAV share of the ROI: when set, game.alpha_b = this / "
+            "swarm.n_robots, so the link term of eq. 6 keeps its balance against a move's "
+            "coverage gain at any swarm size; mutually exclusive with game.alpha_b (None = "
+            "game.alpha_b as given); no unit."
         ),
     )
 
@@ -182,7 +212,7 @@ class CoverageConfig(Section):
 
     def check_scenario(self, scenario) -> None:
         """The pairwise crowding penalty and the link term at risk are weighted by
-        ``game.alpha_b``, which must be > 0."""
+        ``game.alpha_b`` (given, or derived from ``alpha_b_share``), which must be > 0."""
         if self.link_term == "at_risk" and scenario.game.alpha_b == 0:
             raise ValueError(
                 "game.alpha_b must be > 0 for the link term at risk "
@@ -191,16 +221,23 @@ class CoverageConfig(Section):
             )
         crowding = self.separation_m > 0 and self.separation_cost_db > 0
         if crowding and self.separation_mode == "pairwise" and scenario.game.alpha_b == 0:
+            given = (
+                "game.alpha_b = 0"
+                if self.alpha_b_share is None
+                else "game.alpha_b = 0 from coverage.alpha_b_share = 0"
+            )
             raise ValueError(
                 "game.alpha_b must be > 0 for the pairwise crowding penalty "
-                "(coverage.separation_mode = 'pairwise') (got game.alpha_b = 0); set "
+                f"(coverage.separation_mode = 'pairwise') (got {given}); set "
                 "coverage.separation_mode = 'unary' or coverage.separation_cost_db = 0"
             )
 
     def derive(self, scenario) -> dict[str, dict[str, Any]]:
-        """With ``area_per_robot_m2`` set: the ROI covariance and the take-off disc of
-        ``swarm.n_robots`` UAVs at that density (:func:`~swarmgames.missions.coverage.roi.
-        constant_density`); nothing otherwise.
+        """The fields that follow from ``swarm.n_robots``: with ``area_per_robot_m2`` set,
+        the ROI covariance and the take-off disc of N UAVs at that density
+        (:func:`~swarmgames.missions.coverage.roi.constant_density`); with
+        ``move_cost_share_db`` or ``alpha_b_share`` set, ``move_cost_db`` or ``game.alpha_b``
+        (that share divided by N); nothing otherwise.
 
         Raises
         ------
@@ -208,6 +245,21 @@ class CoverageConfig(Section):
             One of the derived fields was also given, or the derived ROI cannot be gridded
             with ``grid_cell_m``.
         """
+        derived = self._derive_density(scenario)
+        n = scenario.swarm.n_robots
+        if self.move_cost_share_db is not None:
+            share = self.move_cost_share_db
+            _refuse_given("move_cost_share_db", share, self, "coverage.move_cost_db")
+            derived.setdefault("mission", {})["move_cost_db"] = share / n
+        if self.alpha_b_share is not None:
+            share = self.alpha_b_share
+            _refuse_given("alpha_b_share", share, scenario.game, "game.alpha_b")
+            derived["game"] = {"alpha_b": share / n}
+        return derived
+
+    def _derive_density(self, scenario) -> dict[str, dict[str, Any]]:
+        """The ROI covariance and the take-off disc of ``area_per_robot_m2`` (see
+        :meth:`derive`)."""
         if self.area_per_robot_m2 is None:
             return {}
         given = [
@@ -242,6 +294,18 @@ class CoverageConfig(Section):
             "mission": {"roi_cov_m2": cov},
             "swarm": {"start_center_m": tuple(self.roi_mean_m), "start_radius_m": radius},
         }
+
+
+def _refuse_given(name: str, share: float, section, path: str) -> None:
+    """Raise ``ValueError`` when the field at ``path`` (in ``section``), which
+    ``coverage.<name>`` derives, was also given."""
+    field = path.split(".")[1]
+    if field in section.model_fields_set:
+        raise ValueError(
+            f"coverage.{name} derives {path} from swarm.n_robots, so it is mutually exclusive "
+            f"with it: remove {path}, or coverage.{name} (got coverage.{name} = {share:g}, "
+            f"{path} = {getattr(section, field):g})"
+        )
 
 
 def _plain(value: Any) -> str:
