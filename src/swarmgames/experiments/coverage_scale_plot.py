@@ -1,0 +1,105 @@
+"""The figure of the coverage-at-scale study (:mod:`swarmgames.experiments.coverage_scale`):
+final coverage, components at the end and the share of take-off links lost against the swarm
+size, one series per variant, the mean over the seeds with its 95 % interval and every run as
+a dot."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+__all__ = ["PANELS", "plot_coverage_scale"]
+
+#: ``(measure, axis label)`` of each panel, left to right.
+PANELS = (
+    ("coverage_end_dbm", "final coverage (dBm)"),
+    ("components_end", "components at the end"),
+    ("links_lost_share", "take-off links lost (share)"),
+)
+#: Colour and marker of each variant.
+STYLES = {
+    "game": ("tab:blue", "o"),
+    "game-nolink": ("tab:orange", "s"),
+    "lloyd": ("tab:green", "^"),
+}
+
+
+def plot_coverage_scale(aggregate: pd.DataFrame, runs: pd.DataFrame) -> Figure:
+    """One panel per measure of :data:`PANELS` against N (log axis when N spans a factor of
+    20 or more): per variant the mean over the seeds and its Student-t 95 % interval as
+    error bars, every complete run as a faint dot; the variants sit side by side around each
+    N so that their bars do not hide one another.
+
+    Parameters
+    ----------
+    aggregate : DataFrame
+        :meth:`~swarmgames.experiments.coverage_scale.CoverageScaleResult.aggregate`.
+    runs : DataFrame
+        The study's ``runs.csv``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    sizes = sorted(runs["n_robots"].unique())
+    log = sizes[0] > 0 and sizes[-1] >= 20 * sizes[0]
+    variants = [v for v in STYLES if v in set(runs["variant"])]
+    done = runs[runs["status"] == "complete"]
+    fig = Figure(figsize=(7.2, 2.6), layout="constrained")
+    axes = fig.subplots(1, len(PANELS))
+    for ax, (metric, label) in zip(axes, PANELS, strict=True):
+        for k, variant in enumerate(variants):
+            colour, marker = STYLES[variant]
+            shift = (k - (len(variants) - 1) / 2) * 0.06
+            rows = aggregate[(aggregate["variant"] == variant) & (aggregate["metric"] == metric)]
+            rows = rows.sort_values("n_robots")
+            xs = _shifted(rows["n_robots"].to_numpy(dtype=float), shift, log)
+            mean = rows["mean"].to_numpy(dtype=float)
+            err = np.nan_to_num(
+                np.vstack([mean - rows["ci_low"].to_numpy(float), rows["ci_high"] - mean]),
+                nan=0.0,
+            )
+            ax.errorbar(
+                xs,
+                mean,
+                yerr=err,
+                color=colour,
+                marker=marker,
+                ms=4,
+                lw=1.2,
+                capsize=2.5,
+                label=variant,
+            )
+            mine = done[done["variant"] == variant]
+            ax.plot(
+                _shifted(mine["n_robots"].to_numpy(dtype=float), shift, log),
+                mine[metric].to_numpy(dtype=float),
+                ls="none",
+                marker=marker,
+                ms=2.5,
+                color=colour,
+                alpha=0.35,
+            )
+        if log:
+            ax.set_xscale("log")
+            ax.minorticks_off()
+        ax.set_xticks(sizes, [f"{n:,}" for n in sizes])
+        ax.set_xlabel("UAVs N")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3, lw=0.5)
+        ax.tick_params(labelsize="small")
+    axes[1].yaxis.get_major_locator().set_params(integer=True)
+    axes[0].legend(fontsize="small", frameon=False)
+    n = int(aggregate.loc[aggregate["variant"].isin(variants), "n"].min())
+    fig.suptitle(
+        f"coverage-large at constant density: mean and 95 % interval over the seeds "
+        f"(n \u2265 {n}), runs as dots",
+        fontsize="small",
+    )
+    return fig
+
+
+def _shifted(x: np.ndarray, shift: float, log: bool) -> np.ndarray:
+    """``x`` moved by ``shift`` decades on a log axis, or by ``shift`` of its value."""
+    return x * 10.0**shift if log else x * (1.0 + shift)
