@@ -31,9 +31,10 @@ final positions no longer hold. It counts the communication the mission destroye
 broken and formed again later in the run do not count (summing the links broken between
 consecutive stages would count such flicker and grow with the number of stages), and new
 links do not make up for lost ones (they join other pairs). ``links_lost_share`` divides it
-by :math:`|E_0|`, comparable across sizes. ``components_end`` and ``max_hops_end`` are the
-run's own figures of its last stage (connected components and longest shortest path of the
-1-hop links of the routing tables, :func:`swarmgames.sim.loop.swarm_graph_stats`).
+by :math:`|E_0|`, comparable across sizes. ``components_start``, ``components_end`` and
+``max_hops_end`` are the run's own figures of its first and last stage (``swarm`` table and
+``summary.json``: connected components and longest shortest path of the 1-hop links of the
+routing tables, :func:`swarmgames.sim.loop.swarm_graph_stats`).
 
 References
 ----------
@@ -59,6 +60,7 @@ from swarmgames.errors import ConfigError
 __all__ = [
     "COMPARISONS",
     "DEFAULT_SIZES",
+    "HEADLINE",
     "MEASURES",
     "SCENARIO",
     "VARIANTS",
@@ -81,6 +83,7 @@ MEASURES = (
     "coverage_start_dbm",
     "coverage_end_dbm",
     "coverage_gain_db",
+    "components_start",
     "components_end",
     "max_hops_end",
     "links_start",
@@ -91,6 +94,8 @@ MEASURES = (
     "bytes_per_robot_stage",
     "olsr_bytes_per_robot_stage",
 )
+#: The measures the command prints per size and variant.
+HEADLINE = ("coverage_end_dbm", "components_end", "links_lost")
 #: Where each size's sweep lives inside the study's folder.
 SIZE_FOLDER = "n{n}"
 #: What a study was asked, written before its first run; the same study resumes into it.
@@ -137,7 +142,8 @@ def run_measures(folder: str | Path, config: ScenarioConfig) -> dict[str, float]
     Parameters
     ----------
     folder : str or Path
-        A complete run folder (``summary.json`` and the ``trajectory`` table).
+        A complete run folder (``summary.json`` and the ``swarm`` and ``trajectory``
+        tables).
     config : ScenarioConfig
         The run's configuration (its radio defines the links).
 
@@ -145,15 +151,15 @@ def run_measures(folder: str | Path, config: ScenarioConfig) -> dict[str, float]
     -------
     dict
         :data:`MEASURES`: coverage at the start and end (dBm) and the gain (dB), components
-        and longest route (hops) of the last stage, radio links at take-off and at the end,
-        links lost and their share of the take-off links (NaN without take-off links), the
-        median wall time of a stage (s), and game and OLSR payload bytes sent and relayed
-        per robot and stage.
+        at the first stage, components and longest route (hops) at the last stage, radio
+        links at take-off and at the end, links lost and their share of the take-off links
+        (NaN without take-off links), the median wall time of a stage (s), and game and
+        OLSR payload bytes sent and relayed per robot and stage.
 
     Raises
     ------
     InputDataError
-        The folder's trajectory table cannot be read.
+        The folder's ``swarm`` or ``trajectory`` table cannot be read.
     """
     import json
 
@@ -163,6 +169,7 @@ def run_measures(folder: str | Path, config: ScenarioConfig) -> dict[str, float]
 
     folder = Path(folder)
     summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
+    swarm = read_table(folder, "swarm")
     trajectory = read_table(folder, "trajectory").sort_values(["t", "robot"], kind="stable")
     radio = config.network.radio.model_dump() | {"shadowing_sigma_db": 0.0, "nakagami_m": None}
     model = PropagationModel(RadioParameters(**radio))
@@ -177,6 +184,7 @@ def run_measures(folder: str | Path, config: ScenarioConfig) -> dict[str, float]
         "coverage_start_dbm": float(summary["coverage_start_dbm"]),
         "coverage_end_dbm": float(summary["coverage_end_dbm"]),
         "coverage_gain_db": float(summary["coverage_end_dbm"] - summary["coverage_start_dbm"]),
+        "components_start": float(swarm["components"].iloc[0]),
         "components_end": float(summary["components_end"]),
         "max_hops_end": float(summary["max_hops_end"]),
         "links_start": float(start.size),
