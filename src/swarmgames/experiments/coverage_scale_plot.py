@@ -1,7 +1,7 @@
 """The figure of the coverage-at-scale study (:mod:`swarmgames.experiments.coverage_scale`):
 final coverage, components at the end and the share of take-off links lost against the swarm
 size, one series per variant, the mean over the seeds with its 95 % interval and every run as
-a dot."""
+a dot, and the take-off value (the same for every variant of a seed) as a dashed line."""
 
 from __future__ import annotations
 
@@ -11,11 +11,11 @@ from matplotlib.figure import Figure
 
 __all__ = ["PANELS", "plot_coverage_scale"]
 
-#: ``(measure, axis label)`` of each panel, left to right.
+#: ``(measure, axis label, the measure at take-off or None)`` of each panel, left to right.
 PANELS = (
-    ("coverage_end_dbm", "final coverage (dBm)"),
-    ("components_end", "components at the end"),
-    ("links_lost_share", "take-off links lost (share)"),
+    ("coverage_end_dbm", "final coverage (dBm)", "coverage_start_dbm"),
+    ("components_end", "components at the end", "components_start"),
+    ("links_lost_share", "take-off links lost (share)", None),
 )
 #: Colour and marker of each variant.
 STYLES = {
@@ -29,7 +29,8 @@ def plot_coverage_scale(aggregate: pd.DataFrame, runs: pd.DataFrame) -> Figure:
     """One panel per measure of :data:`PANELS` against N (log axis when N spans a factor of
     20 or more): per variant the mean over the seeds and its Student-t 95 % interval as
     error bars, every complete run as a faint dot; the variants sit side by side around each
-    N so that their bars do not hide one another.
+    N so that their bars do not hide one another. A dashed grey line is the mean at take-off
+    where the panel has one.
 
     Parameters
     ----------
@@ -46,9 +47,17 @@ def plot_coverage_scale(aggregate: pd.DataFrame, runs: pd.DataFrame) -> Figure:
     log = sizes[0] > 0 and sizes[-1] >= 20 * sizes[0]
     variants = [v for v in STYLES if v in set(runs["variant"])]
     done = runs[runs["status"] == "complete"]
-    fig = Figure(figsize=(7.2, 2.6), layout="constrained")
+    fig = Figure(figsize=(7.2, 2.9), layout="constrained")
     axes = fig.subplots(1, len(PANELS))
-    for ax, (metric, label) in zip(axes, PANELS, strict=True):
+    for ax, (metric, label, start) in zip(axes, PANELS, strict=True):
+        if start is not None:
+            first = aggregate[
+                (aggregate["variant"] == variants[0]) & (aggregate["metric"] == start)
+            ]
+            first = first.sort_values("n_robots")
+            ax.plot(
+                first["n_robots"], first["mean"], color="0.45", ls="--", lw=1.0, label="take-off"
+            )
         for k, variant in enumerate(variants):
             colour, marker = STYLES[variant]
             shift = (k - (len(variants) - 1) / 2) * 0.06
@@ -90,7 +99,15 @@ def plot_coverage_scale(aggregate: pd.DataFrame, runs: pd.DataFrame) -> Figure:
         ax.grid(alpha=0.3, lw=0.5)
         ax.tick_params(labelsize="small")
     axes[1].yaxis.get_major_locator().set_params(integer=True)
-    axes[0].legend(fontsize="small", frameon=False)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(
+        handles,
+        labels,
+        loc="outside lower center",
+        ncols=len(labels),
+        frameon=False,
+        fontsize="small",
+    )
     n = int(aggregate.loc[aggregate["variant"].isin(variants), "n"].min())
     fig.suptitle(
         f"coverage-large at constant density: mean and 95 % interval over the seeds "
