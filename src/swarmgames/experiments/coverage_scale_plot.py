@@ -11,11 +11,12 @@ from matplotlib.figure import Figure
 
 __all__ = ["PANELS", "plot_coverage_scale"]
 
-#: ``(measure, axis label, the measure at take-off or None)`` of each panel, left to right.
+#: ``(measure, axis label, the measure at take-off or None, counts)`` of each panel, left to
+#: right; a panel of counts (>= 1) gets a log axis when they span a factor of 20 or more.
 PANELS = (
-    ("coverage_end_dbm", "final coverage (dBm)", "coverage_start_dbm"),
-    ("components_end", "components at the end", "components_start"),
-    ("links_lost_share", "take-off links lost (share)", None),
+    ("coverage_end_dbm", "final coverage (dBm)", "coverage_start_dbm", False),
+    ("components_end", "components at the end", "components_start", True),
+    ("links_lost_share", "take-off links lost (share)", None, False),
 )
 #: Colour and marker of each variant.
 STYLES = {
@@ -49,7 +50,7 @@ def plot_coverage_scale(aggregate: pd.DataFrame, runs: pd.DataFrame) -> Figure:
     done = runs[runs["status"] == "complete"]
     fig = Figure(figsize=(7.2, 2.9), layout="constrained")
     axes = fig.subplots(1, len(PANELS))
-    for ax, (metric, label, start) in zip(axes, PANELS, strict=True):
+    for ax, (metric, label, start, counts) in zip(axes, PANELS, strict=True):
         if start is not None:
             first = aggregate[
                 (aggregate["variant"] == variants[0]) & (aggregate["metric"] == start)
@@ -94,11 +95,14 @@ def plot_coverage_scale(aggregate: pd.DataFrame, runs: pd.DataFrame) -> Figure:
             ax.set_xscale("log")
             ax.minorticks_off()
         ax.set_xticks(sizes, [f"{n:,}" for n in sizes])
+        values = done[metric].dropna()
+        if counts and len(values) and values.min() >= 1 and values.max() >= 20 * values.min():
+            ax.set_yscale("log")
+            ax.yaxis.set_major_formatter("{x:g}")
         ax.set_xlabel("UAVs N")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3, lw=0.5)
         ax.tick_params(labelsize="small")
-    axes[1].yaxis.get_major_locator().set_params(integer=True)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(
         handles,
@@ -108,10 +112,12 @@ def plot_coverage_scale(aggregate: pd.DataFrame, runs: pd.DataFrame) -> Figure:
         frameon=False,
         fontsize="small",
     )
-    n = int(aggregate.loc[aggregate["variant"].isin(variants), "n"].min())
+    counted = aggregate.loc[aggregate["variant"].isin(variants), "n"]
+    low, high = int(counted.min()), int(counted.max())
+    seeds = f"{low}" if low == high else f"{low}\u2013{high}"
     fig.suptitle(
-        f"coverage-large at constant density: mean and 95 % interval over the seeds "
-        f"(n \u2265 {n}), runs as dots",
+        f"coverage-large at constant density: mean and 95 % interval over {seeds} seeds "
+        "per point, runs as dots",
         fontsize="small",
     )
     return fig
