@@ -80,16 +80,14 @@ def _open_run_folder(out: Path | None, default_name: str, force: bool):
 
 
 def _parse_integers(text: str, option: str, minimum: int, what: str) -> list[int]:
-    """The integers of ``option N,N,...``; a usage error (exit 2) unless they are all
+    """The integers of ``option N,N,...``; a one-line error (exit 2) unless they are all
     ``>= minimum``."""
     try:
         chosen = [int(x) for x in text.split(",") if x.strip()]
     except ValueError:
         chosen = []
     if not chosen or min(chosen) < minimum:
-        raise click.BadParameter(
-            f"must be comma-separated {what} >= {minimum} (got {text!r})", param_hint=option
-        )
+        raise ConfigError(f"{option}: must be comma-separated {what} >= {minimum} (got {text!r})")
     return chosen
 
 
@@ -216,7 +214,16 @@ def run(
 
 # ----------------------------------------------------------------------------- reproduce
 
-FIGURES = ("fig1", "fig2", "fig2-scale", "comms", "comms-cost", "comms-ns3", "all")
+FIGURES = (
+    "fig1",
+    "fig2",
+    "fig2-scale",
+    "coverage-scale",
+    "comms",
+    "comms-cost",
+    "comms-ns3",
+    "all",
+)
 
 
 @cli.command()
@@ -236,32 +243,35 @@ FIGURES = ("fig1", "fig2", "fig2-scale", "comms", "comms-cost", "comms-ns3", "al
     "--seeds",
     default=None,
     metavar="S,S,...",
-    help="Seeds of every variant of `comms` (default 0,1,2) and `fig2-scale` (default 0-4).",
+    help="Seeds of every variant of `comms` (default 0,1,2), `fig2-scale` and "
+    "`coverage-scale` (default 0-4).",
 )
 @click.option(
     "--sizes",
     default=None,
     metavar="N,N,...",
-    help="Swarm sizes of `fig2-scale` (default 10,20,50,100,200,500,1000).",
+    help="Swarm sizes of `fig2-scale` (default 10,20,50,100,200,500,1000) and "
+    "`coverage-scale` (default 7,100,1000,10000).",
 )
 @click.option(
     "--variants",
     default=None,
     metavar="V,V,...",
-    help="game.virtual_mean settings of `fig2-scale` (default eq3,outside,exact,off).",
+    help="game.virtual_mean settings of `fig2-scale` (default eq3,outside,exact,off); "
+    "controllers of `coverage-scale` (default game,game-nolink,lloyd).",
 )
 @click.option(
     "--jobs",
     type=click.IntRange(min=1),
     default=None,
-    help="Runs of `fig2-scale` at once (default: the CPU count).",
+    help="Runs of `fig2-scale` and `coverage-scale` at once (default: the CPU count).",
 )
 @click.option(
     "--executor",
     type=click.Choice(["local", "ray"]),
     default="local",
     show_default=True,
-    help="Where `fig2-scale` runs: local processes, or Ray.",
+    help="Where `fig2-scale` and `coverage-scale` run: local processes, or Ray.",
 )
 @click.option("--address", default=None, metavar="ADDR", help="Ray cluster (--executor ray).")
 @click.option("--no-progress", is_flag=True, help="Do not show a progress bar.")
@@ -303,15 +313,26 @@ def reproduce(
           density, neighbourhoods of 3 hops and more) for --sizes x --variants x
           --seeds on the sweep machinery, resumable; results, aggregate (95 %
           intervals) and paired tables, figures against N (docs/results.md)
+    coverage-scale  the coverage-large preset at constant density for --sizes
+          (default 7,100,1000,10000) x --seeds under the game, the game without
+          its link term (game.alpha_b = 0) and Lloyd, on the sweep machinery,
+          resumable; coverage, components, links lost, hops, stage time and bytes
+          per run, aggregate and paired tables, coverage-scale.png (docs/results.md)
     all   fig1 and fig2, into OUT/fig1 and OUT/fig2
 
     --set overrides apply to the scenario the figures start from (fig2-scale: to the
-    fig2-scale scenario, before it is rescaled to each size).
+    fig2-scale scenario, before it is rescaled to each size; coverage-scale: to the
+    coverage-large preset, before each size and variant).
     """
     from swarmgames.config import resolve_scenario
 
     if figure == "fig2-scale":
         _reproduce_fig2_scale(
+            out, overrides, seeds, sizes, variants, jobs, executor, address, no_progress
+        )
+        return
+    if figure == "coverage-scale":
+        _reproduce_coverage_scale(
             out, overrides, seeds, sizes, variants, jobs, executor, address, no_progress
         )
         return
@@ -410,6 +431,39 @@ def _reproduce_fig2_scale(
             progress=tick,
         )
     _report_runs(res.results, root, ["coverage_end_dbm"], "fig2-scale")
+
+
+def _reproduce_coverage_scale(
+    out, overrides, seeds, sizes, variants, jobs, executor, address, no_progress
+) -> None:
+    from swarmgames.config import resolve_scenario
+    from swarmgames.experiments import coverage_scale
+
+    if address is not None and executor != "ray":
+        raise ConfigError(f"--address: is a Ray cluster's, for --executor ray (got {address!r})")
+    root = out if out is not None else Path("runs") / "coverage-scale"
+    chosen = {
+        "sizes": coverage_scale.DEFAULT_SIZES
+        if sizes is None
+        else _parse_integers(sizes, "--sizes", 1, "swarm sizes"),
+        "seeds": (0, 1, 2, 3, 4) if seeds is None else _parse_seeds(seeds),
+        "variants": coverage_scale.VARIANTS
+        if variants is None
+        else [v.strip() for v in variants.split(",")],
+    }
+    base = resolve_scenario(coverage_scale.SCENARIO, overrides)
+    total = len(chosen["sizes"]) * len(chosen["seeds"]) * len(chosen["variants"])
+    with _progress(f"coverage-scale ({total} runs)", not no_progress and _interactive()) as tick:
+        res = coverage_scale.reproduce_coverage_scale(
+            root,
+            **chosen,
+            base=base,
+            jobs=jobs,
+            executor=executor,
+            address=address,
+            progress=tick,
+        )
+    _report_runs(res.runs, root, list(coverage_scale.HEADLINE), "coverage-scale")
 
 
 # ----------------------------------------------------------------------------- sweep
