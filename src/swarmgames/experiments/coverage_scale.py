@@ -4,12 +4,9 @@ The coverage mission at constant density (the ``coverage-large`` preset, which d
 ROI and take-off disc from ``swarm.n_robots``) for every swarm size, seed and controller:
 
 * ``game``: the preset as it is (local graphical games, link term on);
-* ``game-nolink``: the same games without the communication-aware link term of eq. 6,
-  ``game.alpha_b = 0``. The crowding penalty rides on the pairwise potential in the preset
-  (``coverage.separation_mode = "pairwise"``, whose weight is ``alpha_b``), which the
-  configuration refuses with ``alpha_b = 0``; the variant keeps the penalty as a unary
-  against the neighbours' current positions (``coverage.separation_mode = "unary"``), so it
-  differs from ``game`` by the link term and by where the crowding penalty is scored;
+* ``game-nolink``: the same games without the communication-aware link term
+  (``coverage.link_term = "off"``): the pairwise term keeps the crowding penalty alone, so
+  the variant differs from ``game`` by the link term and nothing else;
 * ``lloyd``: the Lloyd/Voronoi baseline of the coverage mission (``sim.controller =
   "lloyd"``, centralised states, no game).
 
@@ -109,7 +106,7 @@ KEYS = ("n_robots", "variant")
 VARIANT_OVERRIDES: Mapping[str, Mapping[str, Any]] = MappingProxyType(
     {
         "game": {},
-        "game-nolink": {"game.alpha_b": 0.0, "coverage.separation_mode": "unary"},
+        "game-nolink": {"coverage.link_term": "off"},
         "lloyd": {"sim.controller": "lloyd"},
     }
 )
