@@ -35,9 +35,10 @@ def test_the_variants_are_valid_configurations_that_differ_where_they_say():
     assert nolink.mission.separation_cost_db == base.mission.separation_cost_db
     lloyd = apply_overrides(base, dict(VARIANT_OVERRIDES["lloyd"]))
     assert lloyd.sim.controller == "lloyd" and lloyd.game.alpha_b == base.game.alpha_b
-    # alpha_b = 0 alone is refused: the preset's crowding penalty rides on the pairwise term
+    # A pairwise weight of 0 is refused: the preset's crowding penalty rides on the
+    # pairwise term, whose weight the preset derives from its share.
     with pytest.raises(ConfigError, match=r"game\.alpha_b must be > 0"):
-        apply_overrides(base, {"game.alpha_b": 0.0})
+        apply_overrides(base, {"coverage.alpha_b_share": 0.0})
 
 
 def _fake_run(folder, first, last):
