@@ -419,17 +419,8 @@ def _reproduce_fig2_scale(
             fig2_scale.VARIANT_COLUMN
         ],
     }
-    total = len(chosen["sizes"]) * len(chosen["seeds"]) * len(chosen["variants"])
-    with _progress(f"fig2-scale ({total} runs)", not no_progress and _interactive()) as tick:
-        res = fig2_scale.reproduce_fig2_scale(
-            root,
-            **chosen,
-            base=base,
-            jobs=jobs,
-            executor=executor,
-            address=address,
-            progress=tick,
-        )
+    res = _run_study("fig2-scale", fig2_scale.reproduce_fig2_scale, root, chosen, base,
+                     jobs, executor, address, no_progress)  # fmt: skip
     _report_runs(res.results, root, ["coverage_end_dbm"], "fig2-scale")
 
 
@@ -452,18 +443,18 @@ def _reproduce_coverage_scale(
         else [v.strip() for v in variants.split(",")],
     }
     base = resolve_scenario(coverage_scale.SCENARIO, overrides)
-    total = len(chosen["sizes"]) * len(chosen["seeds"]) * len(chosen["variants"])
-    with _progress(f"coverage-scale ({total} runs)", not no_progress and _interactive()) as tick:
-        res = coverage_scale.reproduce_coverage_scale(
-            root,
-            **chosen,
-            base=base,
-            jobs=jobs,
-            executor=executor,
-            address=address,
-            progress=tick,
-        )
+    res = _run_study("coverage-scale", coverage_scale.reproduce_coverage_scale, root, chosen,
+                     base, jobs, executor, address, no_progress)  # fmt: skip
     _report_runs(res.runs, root, list(coverage_scale.HEADLINE), "coverage-scale")
+
+
+def _run_study(name, reproduce, root, chosen, base, jobs, executor, address, no_progress):
+    """``reproduce(root, **chosen, ...)`` of a study over sizes × seeds × variants, with a
+    progress bar when interactive; returns its result."""
+    total = len(chosen["sizes"]) * len(chosen["seeds"]) * len(chosen["variants"])
+    with _progress(f"{name} ({total} runs)", not no_progress and _interactive()) as tick:
+        return reproduce(root, **chosen, base=base, jobs=jobs, executor=executor,
+                         address=address, progress=tick)  # fmt: skip
 
 
 # ----------------------------------------------------------------------------- sweep

@@ -271,13 +271,6 @@ class CoverageScaleResult:
         return files
 
 
-def _check(values: Sequence[Any], what: str) -> tuple[Any, ...]:
-    values = tuple(values)
-    if not values or len(set(values)) != len(values):
-        raise ConfigError(f"{what}: must be a non-empty list without repeats (got {values!r})")
-    return values
-
-
 def reproduce_coverage_scale(
     out: str | Path,
     *,
@@ -326,7 +319,7 @@ def reproduce_coverage_scale(
         ``out`` holds something other than this study.
     """
     from swarmgames.experiments.sweep import sweep
-    from swarmgames.experiments.sweep.grid import factors_from_mapping, plan_sweep
+    from swarmgames.experiments.sweep.grid import factors_from_mapping, plan_sweep, study_levels
 
     base = resolve_scenario(SCENARIO) if base is None else base
     if base.scenario != "coverage":
@@ -338,15 +331,15 @@ def reproduce_coverage_scale(
             "coverage.area_per_robot_m2: coverage-scale keeps the density of the swarm, so it "
             "must be set (got None)"
         )
-    sizes = _check(sizes, "sizes")
+    sizes = study_levels(sizes, "sizes")
     if not all(isinstance(n, int) and not isinstance(n, bool) and n >= 1 for n in sizes):
         raise ConfigError(f"sizes: must be integers >= 1 (got {sizes!r})")
-    variants = _check(variants, "variants")
+    variants = study_levels(variants, "variants")
     unknown = [v for v in variants if v not in VARIANTS]
     if unknown:
         raise ConfigError(f"variants: must be some of {', '.join(VARIANTS)} (got {unknown[0]!r})")
     variants = tuple(v for v in VARIANTS if v in variants)
-    seeds = _check(seeds, "seeds")
+    seeds = study_levels(seeds, "seeds")
     factors = _zipped_factors(base, variants)
     configs = {
         n: apply_overrides(base, {"swarm.n_robots": n}, source=f"{base.name} for {n} UAVs")

@@ -157,13 +157,6 @@ class Fig2ScaleResult:
         return files
 
 
-def _check(values: Sequence[Any], what: str) -> tuple[Any, ...]:
-    values = tuple(values)
-    if not values or len(set(values)) != len(values):
-        raise ConfigError(f"{what}: must be a non-empty list without repeats (got {values!r})")
-    return values
-
-
 def reproduce_fig2_scale(
     out: str | Path,
     *,
@@ -211,15 +204,15 @@ def reproduce_fig2_scale(
         ``out`` holds something other than this study.
     """
     from swarmgames.experiments.sweep import sweep
-    from swarmgames.experiments.sweep.grid import factors_from_mapping, plan_sweep
+    from swarmgames.experiments.sweep.grid import factors_from_mapping, plan_sweep, study_levels
 
     base = resolve_scenario(SCENARIO) if base is None else base
     root = Path(out)
-    sizes = _check(sizes, "sizes")
+    sizes = study_levels(sizes, "sizes")
     if not all(isinstance(n, int) and not isinstance(n, bool) and n >= 1 for n in sizes):
         raise ConfigError(f"sizes: must be integers >= 1 (got {sizes!r})")
-    variants = _check(variants, "variants")
-    seeds = _check(seeds, "seeds")
+    variants = study_levels(variants, "variants")
+    seeds = study_levels(seeds, "seeds")
     configs = {n: scenario_for(n, base) for n in sizes}
     for n in sizes:  # every combination is checked before the first run
         plan_sweep(configs[n], factors_from_mapping({VARIANT_COLUMN: variants}), seeds, False)

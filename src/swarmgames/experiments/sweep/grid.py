@@ -36,6 +36,7 @@ __all__ = [
     "folder_name",
     "plan_sweep",
     "split_levels",
+    "study_levels",
 ]
 
 #: Longest readable part of a run folder's name (the hash that follows keeps it unique).
@@ -171,6 +172,21 @@ def _factor(path: str, levels: Sequence[Any], what: str) -> Factor:
     if not frozen:
         raise ConfigError(f"{path}: needs at least one value (got {what})")
     return Factor(path, frozen)
+
+
+def study_levels(values: Sequence[Any], what: str) -> tuple[Any, ...]:
+    """The levels of a study's axis (its sizes, seeds or variants) as a tuple; ``what``
+    names the axis in the one-line error.
+
+    Raises
+    ------
+    ConfigError
+        No level, or a level given twice.
+    """
+    values = tuple(values)
+    if not values or len(set(values)) != len(values):
+        raise ConfigError(f"{what}: must be a non-empty list without repeats (got {values!r})")
+    return values
 
 
 def _first_repeat(items: Sequence[Any]) -> Any:
