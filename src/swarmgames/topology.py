@@ -86,6 +86,40 @@ class TopologySnapshot:
         nh = None if next_hop is None else np.asarray(next_hop)[owner, dest]
         return cls(time, n, owner, dest, hops[owner, dest].astype(np.int16), nh)
 
+    @classmethod
+    def concat(cls, snapshots) -> TopologySnapshot:
+        """Independent swarms side by side as one snapshot: swarm ``e``'s robot ``i`` becomes
+        robot ``offset_e + i`` (``offset_e`` the robots of the swarms before it), and no entry
+        joins two swarms (a block-diagonal network). The swarms' snapshots must be taken at
+        one time.
+
+        Examples
+        --------
+        >>> one = TopologySnapshot.from_hop_matrix(0.0, np.array([[0, 1], [1, 0]]))
+        >>> two = TopologySnapshot.concat([one, one])
+        >>> two.n_robots, two.owner.tolist(), two.dest.tolist()
+        (4, [0, 1, 2, 3], [1, 0, 3, 2])
+        """
+        snaps = list(snapshots)
+        if not snaps:
+            raise ValueError("concat needs at least one snapshot")
+        times = {float(s.time) for s in snaps}
+        if len(times) != 1:
+            raise ValueError(f"snapshots must share one time (got {sorted(times)})")
+        sizes = np.array([s.n_robots for s in snaps], dtype=np.int64)
+        offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        counts = [s.owner.size for s in snaps]
+        shift = np.repeat(offsets, counts)
+        nh = np.concatenate([s.next_hop for s in snaps]).astype(np.int64)
+        return cls(
+            snaps[0].time,
+            int(sizes.sum()),
+            np.concatenate([s.owner for s in snaps]) + shift,
+            np.concatenate([s.dest for s in snaps]) + shift,
+            np.concatenate([s.hops for s in snaps]),
+            np.where(nh >= 0, nh + shift, -1),
+        )
+
     @property
     def n_entries(self) -> int:
         """Number of routing-table entries over all robots."""

@@ -34,8 +34,8 @@ def _random(env, obs, infos):
 
 @pytest.mark.parametrize(
     "extra",
-    [{}, {"comms__model": "ideal"}, {"reward": "mission", "max_neighbours": 2}],
-    ids=["routed", "ideal", "mission-reward-k2"],
+    [{}, {"comms__model": "ideal"}, {"reward": "team", "max_neighbours": 2}],
+    ids=["routed", "ideal", "team-reward-k2"],
 )
 def test_pettingzoo_parallel_api(extra):
     parallel_api_test(_env(**extra), num_cycles=20)
@@ -90,7 +90,7 @@ def test_observations_are_what_the_robots_heard():
     env = _env(comms__loss_rate=0.5, max_neighbours=3)
     env.reset(seed=0)
     obs, *_ = env.step(env.expert_actions())
-    view = env._loop.observe()  # the stage the observation was made from
+    view = env.loop.observe()  # the stage the observation was made from
     inbox = view.messages
     for a, o in obs.items():
         i = int(a.split("_")[1])
@@ -112,7 +112,7 @@ def test_a_crashed_robot_terminates_and_leaves():
     while env.agents:
         _, _, term, trunc, _ = env.step(env.expert_actions())
         if term.get("uav_3"):
-            gone = env._loop.stage
+            gone = env.loop.stage
             assert "uav_3" not in env.agents
         assert not any(term[a] for a in term if a != "uav_3")
     assert gone == 2  # stages at 3, 4, 5 s: dead at the stage at 5 s, it ends after the 2nd
@@ -124,7 +124,7 @@ def test_a_forbidden_action_is_replaced_and_said_so(monkeypatch):
     env.reset(seed=0)
     allowed = np.ones((5, env.n_actions), dtype=bool)
     allowed[:, 3] = False  # as if heading 3 left the arena for everyone
-    monkeypatch.setattr(env, "_masks", lambda view: allowed)
+    monkeypatch.setattr(env.vec, "_masks", lambda states: allowed[None])
     before = env.state().copy()
     _, _, _, _, infos = env.step({"uav_0": 3, "uav_1": 0})
     assert infos["uav_0"]["replaced"] and not infos["uav_1"]["replaced"]

@@ -92,6 +92,7 @@ def test_inertia_declares_what_it_forwards():
 def test_solver_capabilities():
     assert make_solver("exact").capabilities(PLAIN) == SolverCapabilities()
     sampling = make_solver("mean_field", action_choice="sample")
-    assert sampling.capabilities(PLAIN) == SolverCapabilities(samples_actions=True)
+    assert sampling.capabilities(PLAIN) == SolverCapabilities(samples_actions=True, draws=True)
+    assert make_solver("random").capabilities(PLAIN) == SolverCapabilities(draws=True)
     with pytest.raises(TypeError, match="potentials must declare capabilities"):
         make_solver("mean_field").capabilities(_Plain())

@@ -176,6 +176,55 @@ class BeliefInbox:
     def __post_init__(self) -> None:
         freeze_fields(self)
 
+    @classmethod
+    def concat(cls, parts) -> BeliefInbox:
+        """The inboxes of independent swarms side by side: swarm ``e``'s robot ``j`` becomes
+        robot ``offset_e + j`` (``offset_e`` the robots of the swarms before it), as in
+        :meth:`~swarmgames.topology.TopologySnapshot.concat`. Either every part holds a
+        context or none does."""
+        parts = list(parts)
+        sizes = np.array([p.indptr.size - 1 for p in parts], dtype=np.int64)
+        offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+
+        def rows(indptr_of):
+            ends = np.cumsum([indptr_of(p)[-1] for p in parts])
+            starts = np.concatenate([[0], ends[:-1]])
+            return np.concatenate(
+                [
+                    [0],
+                    *(np.asarray(indptr_of(p)[1:]) + s for p, s in zip(parts, starts, strict=True)),
+                ]
+            ).astype(np.int64)
+
+        def ids(values):
+            return np.concatenate(
+                [np.where(v >= 0, v + o, -1) for v, o in zip(values, offsets, strict=True)]
+            ).astype(np.int32)
+
+        width = max(p.nbh.shape[1] for p in parts)
+        nbh = [np.pad(p.nbh, ((0, 0), (0, width - p.nbh.shape[1])), constant_values=-1)
+               for p in parts]  # fmt: skip
+        context = [p.ctx_indptr is not None for p in parts]
+        if any(context) and not all(context):
+            raise ValueError("either every inbox holds a context or none does")
+        extra = {}
+        if all(context):
+            extra = {
+                "ctx_indptr": rows(lambda p: p.ctx_indptr),
+                "ctx_member": ids([p.ctx_member for p in parts]),
+                "ctx_state": np.concatenate([p.ctx_state for p in parts]),
+                "ctx_age": np.concatenate([p.ctx_age for p in parts]),
+            }
+        return cls(
+            indptr=rows(lambda p: p.indptr),
+            member=ids([p.member for p in parts]),
+            state=np.concatenate([p.state for p in parts]),
+            mean=np.concatenate([p.mean for p in parts]),
+            nbh=ids(nbh),
+            age=np.concatenate([p.age for p in parts]),
+            **extra,
+        )
+
     @property
     def exact(self) -> bool:
         """False: what a robot holds may be late, stale or missing (the stage builds the

@@ -1,4 +1,7 @@
-"""Environments for multi-agent learning: a PettingZoo ``ParallelEnv`` over any mission.
+"""Environments for multi-agent learning over any mission: E swarms stepped together as one
+Gymnasium vector environment (:func:`vector_env`), its PettingZoo ``ParallelEnv`` special case
+(:func:`parallel_env`, E = 1), and an adapter to stable-baselines3 (:mod:`swarmgames.env.sb3`,
+the ``rl`` extra).
 
 Needs the optional ``env`` extra (``pip install "swarmgames[env]"``: pettingzoo, gymnasium);
 importing this package without them raises
@@ -7,6 +10,7 @@ importing this package without them raises
 
 try:
     from swarmgames.env.parallel import SwarmParallelEnv, parallel_env
+    from swarmgames.env.vector import REWARDS, SwarmVectorEnv, vector_env
 except ImportError as exc:  # pettingzoo or gymnasium missing
     from swarmgames.errors import BackendUnavailableError
 
@@ -15,4 +19,4 @@ except ImportError as exc:  # pettingzoo or gymnasium missing
         'pip install "swarmgames[env]"'
     ) from None
 
-__all__ = ["SwarmParallelEnv", "parallel_env"]
+__all__ = ["REWARDS", "SwarmParallelEnv", "SwarmVectorEnv", "parallel_env", "vector_env"]

@@ -157,6 +157,42 @@ class LocalGameBatch:
         (:func:`~swarmgames.game.equal.equal_games`); None when there is none."""
         return equal_games(self.rows, self.mask)
 
+    def at(self, actions) -> LocalGameBatch:
+        """The same games with every variable held at one action, its robot's in the joint
+        action ``actions`` (N,) (a virtual mean at its member's, a context variable at its
+        only one): games of one action whose payoff tables hold, at action 0, every
+        variable's potentials at that joint action. Their stage is a fresh one: their rows
+        are not the full games' rows.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from swarmgames.game import DisplacementActions, local_games
+        >>> from swarmgames.network import TopologySnapshot
+        >>> snap = TopologySnapshot.from_hop_matrix(0.0, np.array([[0, 1], [1, 0]]))
+        >>> moves = DisplacementActions.headings(1.0, 4)
+        >>> one = local_games(snap, 1, np.zeros((2, 2)), moves).at(np.array([1, 2]))
+        >>> one.next_states[0, :, 0].tolist()
+        [[1.0, 0.0], [0.0, 1.0]]
+        """
+        acts = np.asarray(actions, dtype=np.int64).reshape(-1)
+        members = np.asarray(self.members)
+        take = np.where(self.mask, acts[np.maximum(members, 0)], 0)
+        if self.is_context is not None:
+            take = np.where(self.is_context, 0, take)
+        return LocalGameBatch(
+            self.owner,
+            members,
+            self.mask,
+            self.states,
+            self.is_virtual,
+            np.take_along_axis(self.next_states, take[:, :, None, None], axis=2),
+            np.take_along_axis(self.action_mask, take[:, :, None], axis=2),
+            self.pair_mask,
+            self.is_context,
+            self.t,
+        )
+
     def on(self, stage: StageRows) -> LocalGameBatch:
         """The same games as part of ``stage`` (its rows numbered there); the arrays are
         shared, not copied."""

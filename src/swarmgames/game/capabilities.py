@@ -125,11 +125,16 @@ class SolverCapabilities:
         games of a batch on one held pairwise table; None: every game has its own.
     samples_actions : bool, default False
         The owner's action is drawn from its marginal rather than its argmax.
+    draws : bool, default False
+        ``solve_payoffs`` draws from the Generator it is given (sampled actions, random
+        profiles): a problem of several swarms then solves each swarm's games in batches of
+        their own, with the swarm's own Generator.
     """
 
     pairs_on_demand: bool = False
     held_sharing_min: int | None = None
     samples_actions: bool = False
+    draws: bool = False
 
 
 def _declared(obj: Any, kind: type, what: str, promised: dict) -> Any:

@@ -25,9 +25,12 @@ __all__ = ["COLOCATED_TOL", "colocated_groups", "separate_colocated"]
 COLOCATED_TOL = 1e-6
 
 
-def colocated_groups(states: np.ndarray, tol: float = COLOCATED_TOL) -> list[np.ndarray]:
+def colocated_groups(
+    states: np.ndarray, tol: float = COLOCATED_TOL, swarm: np.ndarray | None = None
+) -> list[np.ndarray]:
     """Groups of two or more robots whose states differ by at most ``tol`` in every
-    coordinate (linked transitively), each sorted, in order of their first robot.
+    coordinate (linked transitively), each sorted, in order of their first robot;
+    ``swarm`` (N,) int: robots of different swarms never share a group.
 
     Examples
     --------
@@ -35,6 +38,8 @@ def colocated_groups(states: np.ndarray, tol: float = COLOCATED_TOL) -> list[np.
     [array([0, 2])]
     """
     st = np.asarray(states, dtype=float)
+    if swarm is not None:  # a label column: different swarms differ by >= 1 > tol there
+        st = np.column_stack([st, np.asarray(swarm, dtype=float)])
     n = st.shape[0]
     if n < 2:
         return []
@@ -56,6 +61,7 @@ def separate_colocated(
     action_mask: np.ndarray,
     rng: int | np.random.Generator | None = None,
     tol: float = COLOCATED_TOL,
+    swarm: np.ndarray | None = None,
 ) -> np.ndarray:
     """Distinct actions for the robots of every group of coinciding states.
 
@@ -73,10 +79,14 @@ def separate_colocated(
         Every robot's own marginal (its variable in its game).
     action_mask : ndarray of bool, shape (N, A)
         Valid actions of every robot.
-    rng : int, Generator or None
-        One permutation per group; nothing is drawn when no robots coincide.
+    rng : int, Generator, None, or sequence of Generator
+        One permutation per group; nothing is drawn when no robots coincide. With ``swarm``,
+        a sequence: the group of swarm ``e`` draws from ``rng[e]``.
     tol : float
         See :func:`colocated_groups`.
+    swarm : ndarray of int, shape (N,), optional
+        The swarm of every robot (:attr:`~swarmgames.game.problem.StageProblem.swarms`):
+        robots of different swarms are never tied.
 
     Returns
     -------
@@ -90,10 +100,11 @@ def separate_colocated(
     array([2, 0, 1])
     """
     out = np.array(actions, dtype=np.int64)
-    groups = colocated_groups(states, tol)
+    groups = colocated_groups(states, tol, swarm)
     if not groups:
         return out
-    gen = as_generator(rng)
+    gens = [as_generator(g) for g in rng] if swarm is not None else None
+    gen = as_generator(rng) if gens is None else None
     q = np.asarray(marginals, dtype=float)
     mask = np.asarray(action_mask, dtype=bool)
     for members in groups:
@@ -102,6 +113,7 @@ def separate_colocated(
             continue
         pref = np.where(valid, q[members].mean(axis=0), -np.inf)
         ranked = np.argsort(-pref, kind="stable")[: int(valid.sum())]
-        drawn = gen.permutation(members)
+        draw = gen if gens is None else gens[int(swarm[members[0]])]
+        drawn = draw.permutation(members)
         out[drawn] = ranked[np.arange(drawn.size) % ranked.size]
     return out

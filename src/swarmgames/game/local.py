@@ -115,6 +115,36 @@ class Messages:
     indices: np.ndarray
     mean_state: np.ndarray
 
+    @classmethod
+    def concat(cls, parts) -> Messages:
+        """The messages of independent swarms side by side: swarm ``e``'s robot ``j`` becomes
+        robot ``offset_e + j`` (``offset_e`` the robots of the swarms before it), as in
+        :meth:`~swarmgames.topology.TopologySnapshot.concat`."""
+        parts = list(parts)
+        sizes = np.array([p.n_robots for p in parts], dtype=np.int64)
+        offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        entries = np.array([p.indices.size for p in parts], dtype=np.int64)
+        starts = np.concatenate([[0], np.cumsum(entries)[:-1]])
+        return cls(
+            state=frozen(np.concatenate([p.state for p in parts])),
+            indptr=frozen(
+                np.concatenate(
+                    [
+                        [0],
+                        *(np.asarray(p.indptr[1:]) + s for p, s in zip(parts, starts, strict=True)),
+                    ]
+                ),
+                np.int64,
+            ),
+            indices=frozen(
+                np.concatenate(
+                    [np.asarray(p.indices) + o for p, o in zip(parts, offsets, strict=True)]
+                ),
+                np.int32,
+            ),
+            mean_state=frozen(np.concatenate([p.mean_state for p in parts])),
+        )
+
     @property
     def exact(self) -> bool:
         """True: every member receives every message of its neighbourhood, at once."""

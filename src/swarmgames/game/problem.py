@@ -94,6 +94,13 @@ class StageProblem:
         (:class:`~swarmgames.game.kept.RowTables`): a controller holds one for its run and
         puts it in every problem, so that potentials compute a row once while it stays
         there. None: nothing is kept beyond the stage. The results do not depend on it.
+    swarms : int, default 1
+        The problem holds this many independent swarms of N / ``swarms`` robots each, side
+        by side: robot ``e n + i`` is swarm ``e``'s robot ``i``
+        (:meth:`~swarmgames.topology.TopologySnapshot.concat`). No routing entry may join
+        two swarms, co-located robots of different swarms are not tied, and each swarm draws
+        from its own Generator (:func:`~swarmgames.game.stage.solve`). A vector
+        environment's E swarms are one stage this way. Not with ``centralised``.
 
     Attributes
     ----------
@@ -139,6 +146,7 @@ class StageProblem:
     keep_games: bool = False
     refine: str = "none"
     kept: RowTables | None = field(default=None, repr=False)
+    swarms: int = 1
     exact: bool = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -176,8 +184,35 @@ class StageProblem:
         object.__setattr__(self, "centralised", bool(self.centralised))
         object.__setattr__(self, "global_regret", bool(self.global_regret))
         object.__setattr__(self, "keep_games", bool(self.keep_games))
+        self._check_swarms(n)
         if self.kept is not None and not isinstance(self.kept, RowTables):
             raise ValueError(f"kept must be a RowTables or None (got {type(self.kept).__name__})")
+
+    def _check_swarms(self, n: int) -> None:
+        e = self.swarms
+        if isinstance(e, bool) or not isinstance(e, (int, np.integer)) or e < 1 or n % e:
+            raise ValueError(
+                f"swarms must be an integer >= 1 that divides the {n} robots (got {e!r})"
+            )
+        object.__setattr__(self, "swarms", int(e))
+        if e == 1:
+            return
+        if self.centralised:
+            raise ValueError(f"a centralised problem holds one swarm (got swarms = {e})")
+        size = n // e
+        snap = self.snapshot
+        crossing = np.asarray(snap.owner) // size != np.asarray(snap.dest) // size
+        if crossing.any():
+            k = int(np.flatnonzero(crossing)[0])
+            raise ValueError(
+                f"swarms = {e}: robot {int(snap.owner[k])}'s routing table reaches robot "
+                f"{int(snap.dest[k])} of another swarm of {size} robots"
+            )
+
+    @property
+    def swarm(self) -> np.ndarray:
+        """The swarm of every robot, (N,) int64."""
+        return np.arange(self.n_robots) // (self.n_robots // self.swarms)
 
     @classmethod
     def ideal(

@@ -345,7 +345,7 @@ class MeanFieldSolver(_Base):
         compiled engine, the potentials' declared ``held_sharing_min(dtype)``, the smallest
         game from which the equal games of a batch share one held table, solved once per
         group; the stage then budgets a batch of such games by its tables. Both need
-        ``alpha_b > 0``. ``samples_actions``: ``action_choice == "sample"``.
+        ``alpha_b > 0``. ``samples_actions`` and ``draws``: ``action_choice == "sample"``.
         """
         caps = capabilities_of(potentials)
         compiled = self.alpha_b > 0 and resolve_engine(self.engine) == "compiled"
@@ -357,6 +357,7 @@ class MeanFieldSolver(_Base):
             and bool(potentials.pair_on_demand(dtype)),
             held_sharing_min=None if least is None else int(least),
             samples_actions=self.action_choice == "sample",
+            draws=self.action_choice == "sample",
         )
 
     def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
@@ -418,6 +419,11 @@ class RandomSolver(_Base):
     """A uniformly random valid action for every variable (lower baseline)."""
 
     name = "random"
+
+    def capabilities(self, potentials: Potentials) -> SolverCapabilities:
+        """Every game's table held; the profiles are drawn (``draws``)."""
+        capabilities_of(potentials)
+        return SolverCapabilities(draws=True)
 
     def solve_payoffs(self, payoffs, rng=None) -> GameSolution:
         """Random profile of every game."""

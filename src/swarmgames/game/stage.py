@@ -78,6 +78,7 @@ __all__ = [
     "measure_expost",
     "measure_stage",
     "plan_stage",
+    "profile_payoffs",
     "sharing_games",
     "size_groups",
     "solve",
@@ -397,9 +398,11 @@ def solve(problem: StageProblem, rng: int | np.random.Generator | None = None) -
     ----------
     problem : StageProblem
         The stage: network, states, messages, action model, potentials, solver and options.
-    rng : int, Generator or None
+    rng : int, Generator, None, or sequence of Generator
         Randomness of ``action_choice="sample"``, of the random solver and of the order among
-        co-located robots.
+        co-located robots; for a problem of several swarms (``problem.swarms``), one
+        Generator per swarm (an int or None seeds them all, a Generator spawns them), so
+        that each swarm's draws do not depend on the others.
 
     Returns
     -------
@@ -420,7 +423,8 @@ def solve(problem: StageProblem, rng: int | np.random.Generator | None = None) -
     >>> stage.actions.tolist(), stage.local_regret.tolist()
     ([1, 1], [0.0, 0.0])
     """
-    gen = as_generator(rng)
+    gens = swarm_generators(rng, problem.swarms)
+    gen = gens[0]
     if problem.centralised:
         return _solve_centralised(problem, gen)
     solver, potentials, action_model = problem.solver, problem.potentials, problem.action_model
@@ -436,7 +440,22 @@ def solve(problem: StageProblem, rng: int | np.random.Generator | None = None) -
     n_act = problem.n_actions
     share_min = None if not problem.exact or mode == "exact" else caps.held_sharing_min
     shared = None if share_min is None else sharing_labels(messages, n_act, share_min)
-    groups = size_groups(sizes, problem.buckets, n_act, on_demand=on_demand, shared=shared)
+    split = problem.swarms > 1 and caps.draws  # a drawing solver: each swarm on its own
+    if split:
+        size = n // problem.swarms
+        groups = [
+            g + e * size
+            for e in range(problem.swarms)
+            for g in size_groups(
+                sizes[e * size : (e + 1) * size],
+                problem.buckets,
+                n_act,
+                on_demand=on_demand,
+                shared=None if shared is None else shared[e * size : (e + 1) * size],
+            )
+        ]
+    else:
+        groups = size_groups(sizes, problem.buckets, n_act, on_demand=on_demand, shared=shared)
     build_s = time.perf_counter() - t0
     rec = _Record(problem, n_act)
     integrate_s = solve_s = refine_s = 0.0
@@ -445,7 +464,8 @@ def solve(problem: StageProblem, rng: int | np.random.Generator | None = None) -
         batch, pay, t_build, t_int = evaluate_games(
             problem, source, owners, virtual_mean=mode, stage=rec.rows
         )
-        sol, ref = _refined(solver.solve_payoffs(pay, gen), pay, problem.refine)
+        draw = gens[int(owners[0]) // (n // problem.swarms)] if split else gen
+        sol, ref = _refined(solver.solve_payoffs(pay, draw), pay, problem.refine)
         rec.actions[owners] = sol.actions
         rec.marginal[owners] = sol.marginals[:, 0]
         if ref is not None:
@@ -475,7 +495,11 @@ def solve(problem: StageProblem, rng: int | np.random.Generator | None = None) -
         if problem.keep_games:
             sols.append((batch, sol))
         del pay  # this batch's table is freed before the next one is built
-    rec.actions[:] = separate_colocated(states, rec.actions, rec.marginal, rec.action_mask, gen)
+    swarm = problem.swarm if problem.swarms > 1 else None
+    rec.actions[:] = separate_colocated(
+        states, rec.actions, rec.marginal, rec.action_mask, gens if swarm is not None else gen,
+        swarm=swarm,
+    )  # fmt: skip
     nxt = rec.next_states(states, action_model)
     expost_s = 0.0
     if problem.global_regret:
@@ -501,6 +525,21 @@ def solve(problem: StageProblem, rng: int | np.random.Generator | None = None) -
         expost_s=expost_s,
         **extra,
     )
+
+
+def swarm_generators(rng, swarms: int) -> list[np.random.Generator]:
+    """One Generator per swarm from ``solve``'s ``rng``: a sequence of ``swarms`` of them as
+    given; else, for one swarm, ``as_generator(rng)``; for several, children of it (an int
+    or None seeds a SeedSequence, a Generator spawns)."""
+    if isinstance(rng, (list, tuple)):
+        if len(rng) != swarms:
+            raise ValueError(f"rng must hold one Generator per swarm, {swarms} (got {len(rng)})")
+        return [as_generator(g) for g in rng]
+    if swarms == 1:
+        return [as_generator(rng)]
+    if isinstance(rng, np.random.Generator):
+        return list(rng.spawn(swarms))
+    return [np.random.default_rng(s) for s in np.random.SeedSequence(rng).spawn(swarms)]
 
 
 def _truth(problem: StageProblem) -> Messages:
@@ -658,6 +697,27 @@ def measure_stage(problem: StageProblem, actions, *, expost: bool = True) -> Sta
         n_games=problem.n_robots,
         expost_s=expost_s,
     )
+
+
+def profile_payoffs(problem: StageProblem, actions) -> np.ndarray:
+    """Every robot's payoff M_i (eq. 1) in its true local game (actual states, N_i(h) from
+    the routing tables, no virtual means) at the joint action ``actions`` (N,): the
+    ``payoff`` of :func:`measure_stage`, evaluated on games of one action each
+    (:meth:`~swarmgames.game.batch.LocalGameBatch.at`) instead of whole tables, so the
+    unary term costs 1/A of it and the pairwise 1/A². Nothing else is measured.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+    """
+    rec = _given_actions(problem, actions)
+    messages = _truth(problem)
+    for owners in size_groups(messages.sizes, problem.buckets, 1):
+        views = messages.views(owners)
+        batch = build_local_games(views, problem.action_model, virtual_mean="off", t=problem.t)
+        pay = problem.solver.evaluate(batch.at(rec.actions), problem.potentials)
+        rec.payoff[owners] = profile_measures(pay, np.zeros(batch.mask.shape, np.int64))[0]
+    return rec.payoff
 
 
 def measure_expost(problem: StageProblem, actions, next_states: np.ndarray) -> np.ndarray:

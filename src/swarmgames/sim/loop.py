@@ -459,7 +459,7 @@ class StageLoop:
         view = self.observe()
         t_stage, t, pos, snap = view.started, view.t, view.states, view.snapshot
         alive, radio, heard = view.alive, view.radio, view.heard
-        prev, f = self._prev, self.faults
+        prev = self._prev
         n = pos.shape[0]
         mean_h, max_h, n_comp, edges = swarm_graph_stats(snap)
         if alive.any():
@@ -476,18 +476,13 @@ class StageLoop:
             problem = self.controller.problem(*view.problem_fields)
             regret = self.controller.expost_regret(problem, dec.actions, new_pos)
             dec = replace(dec, expost_regret=regret)
-        t_next = t + self.period_s
-        snap_next = self.provider.advance(
-            t_next, f.network_positions(new_pos, f.radio(t_next, new_pos))
-        )
-        if self._control is not None:  # sent during this period; a silenced robot sends none
-            olsr = self._control()
+        snap_next, olsr = self._advance(t, new_pos)
+        columns_olsr = {}
+        if olsr is not None:  # sent during this period; a silenced robot sends none
             columns_olsr = {
                 "olsr_messages": np.where(radio, olsr.messages, 0),
                 "olsr_bytes": np.where(radio, olsr.bytes, 0),
             }
-        else:
-            columns_olsr = {}
         columns = {**_robot_columns(dec, n), **heard.columns()}
         for name in DECISION_COLUMNS:  # a crashed robot decides nothing
             columns[name] = np.where(alive, columns[name], np.nan)
@@ -521,6 +516,32 @@ class StageLoop:
         self.stage, self._prev, self.states, self._snap = self.stage + 1, pos, new_pos, snap_next
         self._view = None
         return record
+
+    def move(self, next_states: np.ndarray) -> np.ndarray:
+        """Finish the observed stage without measuring it: every robot alive goes to its row
+        of ``next_states`` (N, D) (a crashed robot holds its state, stopped), the network
+        advances one control period and its OLSR traffic of the period is dropped; returns
+        the states reached. What a learner's environment steps with (:meth:`act` records the
+        stage's measures too)."""
+        view = self.observe()
+        pos, alive = view.states, view.alive
+        new_pos = np.array(next_states, dtype=float)
+        new_pos[~alive] = pos[~alive]
+        new_pos[~alive, 3:] = 0.0
+        snap_next = self._advance(view.t, new_pos)[0]
+        self.stage, self._prev, self.states, self._snap = self.stage + 1, pos, new_pos, snap_next
+        self._view = None
+        return new_pos
+
+    def _advance(self, t: float, new_pos: np.ndarray):
+        """The network one control period on from ``t`` with the robots at ``new_pos``: its
+        routing tables then, and OLSR's traffic of the period (None without a model of it)."""
+        f = self.faults
+        t_next = t + self.period_s
+        snap_next = self.provider.advance(
+            t_next, f.network_positions(new_pos, f.radio(t_next, new_pos))
+        )
+        return snap_next, (self._control() if self._control is not None else None)
 
     def _warn_overload(self, t: float, load: np.ndarray) -> None:
         """Say once per run when a stage's traffic cannot fit the decision window."""
