@@ -890,6 +890,13 @@ def compare(
     help="Robots of the whole-mission benchmark (swarmgames run coverage-large with every "
     "output; default 1000, none with --quick; 0 = none).",
 )
+@click.option(
+    "--env/--no-env",
+    "env",
+    default=None,
+    help="The learning environment's throughput against PettingZoo's MPE (default: when the "
+    "env extra is installed).",
+)
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @out_option
 @force_option
@@ -900,13 +907,15 @@ def bench(
     workers: int | None,
     takeoff: int,
     mission: int | None,
+    env: bool | None,
     seed: int,
     out: Path | None,
     force: bool,
 ) -> None:
     """Time payoff integration, local-game solving, full stages at constant density and the
     OLSR advance against swarm size, with batched / one-by-one and built-in OLSR / ns-3 ratios,
-    and (without --quick) a whole 1 000-UAV mission with every output.
+    the learning environment against PettingZoo's MPE, and (without --quick) a whole
+    1 000-UAV mission with every output.
 
     Writes bench.json, bench.csv and bench.png (cost against N on log-log axes with the fitted
     slope) and prints a table.
@@ -924,9 +933,133 @@ def bench(
         workers=workers,
         takeoff=takeoff,
         mission=mission,
+        env=env,
     )
     _console().print(result.table())
     click.echo(f"Wrote {folder.path}/")
+
+
+# ----------------------------------------------------------------------------- learn
+
+
+@cli.command()
+@click.argument("scenario", default="coverage")
+@set_option
+@click.option(
+    "--envs",
+    type=click.IntRange(min=1, max=4096),
+    default=16,
+    show_default=True,
+    help="Swarms stepped together (E); the policy learns from all E x N robots.",
+)
+@click.option(
+    "--reward",
+    type=click.Choice(["payoff", "team", "difference"]),
+    default="difference",
+    show_default=True,
+    help="Each robot's reward (docs/env.md).",
+)
+@click.option(
+    "--minutes",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=30.0,
+    show_default=True,
+    help="Wall-clock training budget.",
+)
+@click.option(
+    "--agent-steps",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Stop after this many agent-steps instead, if sooner.",
+)
+@click.option(
+    "--eval-seeds",
+    default="100,101,102,103,104",
+    show_default=True,
+    metavar="S,S,...",
+    help="Seeds of the evaluation episodes.",
+)
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@out_option
+@force_option
+@_guarded
+def learn(
+    scenario: str,
+    overrides: tuple[str, ...],
+    envs: int,
+    reward: str,
+    minutes: float,
+    agent_steps: int | None,
+    eval_seeds: str,
+    seed: int,
+    out: Path | None,
+    force: bool,
+) -> None:
+    """Train PPO (stable-baselines3, one policy shared by every robot) on the vector
+    environment of SCENARIO (default: coverage with 7 UAVs for 30 stages, the recipe of
+    docs/env.md), then fly a random policy, the game controller and the trained policy on
+    the evaluation seeds.
+
+    Writes model.zip, normalize.pkl, curve.csv (agent-steps and mean episode reward
+    against time), evaluation.csv (return and the mission's metric per policy and seed)
+    and summary.json, and prints the comparison. Needs the rl extra (pip install
+    "swarmgames[rl]").
+    """
+    import pandas as pd
+
+    seeds = _parse_integers(eval_seeds, "--eval-seeds", 0, "seeds")
+    from swarmgames.env.recipe import compare, recipe_config, train_ppo
+
+    config = recipe_config(scenario, overrides)  # every override checked before training
+    folder = _open_run_folder(out, "learn", force)
+    console = _console()
+
+    def say(wall, steps, mean):
+        console.print(
+            f"[dim]learn[/dim] {wall:6.0f} s  {steps:>10,} agent-steps  reward {mean:.4g}"
+        )
+
+    trained = train_ppo(
+        config,
+        num_envs=envs,
+        reward=reward,
+        minutes=minutes,
+        agent_steps=agent_steps,
+        seed=seed,
+        progress=say,
+    )
+    trained.save(folder.path)
+    folder.write_csv(
+        "curve.csv", pd.DataFrame(trained.curve, columns=["wall_s", "agent_steps", "mean_reward"])
+    )
+    rows = pd.DataFrame(compare(trained, config, seeds=seeds, reward=reward))
+    folder.write_csv("evaluation.csv", rows)
+    metric = next(c for c in rows.columns if c not in ("policy", "seed", "return"))
+    table = rows.groupby("policy", sort=False).agg(["mean", "std"])
+    summary = {
+        "scenario": scenario,
+        "overrides": list(overrides),
+        "envs": envs,
+        "reward": reward,
+        "agent_steps": trained.agent_steps,
+        "train_s": trained.wall_s,
+        "metric": metric,
+        "policies": {
+            p: {"return": [float(r["return"]["mean"]), float(r["return"]["std"])],
+                metric: [float(r[metric]["mean"]), float(r[metric]["std"])]}
+            for p, r in table.iterrows()
+        },
+    }  # fmt: skip
+    folder.write_json("summary.json", summary)
+    for name, stats in summary["policies"].items():
+        ret, val = stats["return"], stats[metric]
+        click.echo(
+            f"{name:8s} return {ret[0]:10.4g} ± {ret[1]:.3g}   {metric} {val[0]:.2f} ± {val[1]:.2f}"
+        )
+    click.echo(
+        f"trained {trained.agent_steps:,} agent-steps in {trained.wall_s:.0f} s; "
+        f"wrote {folder.path}/"
+    )
 
 
 # ----------------------------------------------------------------------------- config

@@ -38,6 +38,10 @@ and ratios measured in the same run:
 * ``mission`` — a whole run of the ``coverage-large`` preset (1 000 UAVs, 60 stages) with
   every output, split into the stage loop and the outputs, and its in-run stage against the
   ``stage`` record of the same N (:mod:`swarmgames.bench.mission`; not ``quick``);
+* ``env_vs_mpe`` and ``env_single`` — the learning environment's throughput: the vector
+  environment (N = 7 with E = 64 envs, N = 30 with E = 16) against PettingZoo's MPE
+  ``simple_spread`` with as many agents, and one env against the same env measuring every
+  step as a run does (:mod:`swarmgames.bench.env`; when the ``env`` extra is installed);
 * ``target`` — each target of :data:`TARGETS` whose record was measured: the value, the
   limit and whether it was met (reported, never asserted). Every target of time is a ratio
   of two times measured in the same run (a stage against its physical estimate, the slope,
@@ -115,6 +119,37 @@ TARGETS = (
     ),
     Target(
         "csma exchange vs ns-3's packets (time ratio)", "csma_vs_ns3", "csma_per_ns3", 0.02, "x"
+    ),
+    Target(
+        "MPE agent-steps per the vector env's, N = 7, E = 64",
+        "env_vs_mpe",
+        "mpe_per_swarmgames",
+        1.0,
+        "x",
+        n_robots=7,
+    ),
+    Target(
+        "MPE agent-steps per the vector env's, N = 7, E = 64 (stretch)",
+        "env_vs_mpe",
+        "mpe_per_swarmgames",
+        1 / 3,
+        "x",
+        n_robots=7,
+    ),
+    Target(
+        "MPE agent-steps per the vector env's, N = 30, E = 16",
+        "env_vs_mpe",
+        "mpe_per_swarmgames",
+        2.0,
+        "x",
+        n_robots=30,
+    ),
+    Target(
+        "one env measuring every step per the default step (steps/s)",
+        "env_single",
+        "measured_per_default",
+        0.2,
+        "x",
     ),
     Target(
         "whole mission's outputs vs its stage loop (coverage-large)",
@@ -278,6 +313,22 @@ class BenchResult:
                 f"{r['outputs_s']:.1f} s of outputs; stage in the run "
                 f"{_fmt_s(r['median_stage_s'])}{vs}"
             )
+        for r in self._of("env_vs_mpe"):
+            vs = ""
+            if "mpe_agent_steps_per_s" in r:
+                vs = f" vs MPE simple_spread {r['mpe_agent_steps_per_s']:,.0f}"
+            parts = ", ".join(
+                f"{k[6:]} {100 * v:.0f} %" for k, v in r.items() if k.startswith("share_")
+            )
+            notes.append(
+                f"vector env, N = {r['n_robots']}, E = {r['num_envs']}: "
+                f"{r['agent_steps_per_s']:,.0f} agent-steps/s{vs} ({parts})"
+            )
+        for r in self._of("env_single"):
+            notes.append(
+                f"one env, N = {r['n_robots']}: {r['steps_per_s']:.0f} steps/s, measuring "
+                f"every step {r['measured_steps_per_s']:.0f} steps/s"
+            )
         for r in self._of("olsr_vs_ns3"):
             if r.get("skipped"):
                 notes.append(f"olsr vs ns-3: skipped ({r['skipped']})")
@@ -390,6 +441,15 @@ def _window_cells(config) -> float:
     reach = np.sqrt(max(floor_distance_sq(sig, cov.signal_floor_dbm) - sw.altitude_m**2, 0.0))
     rho = (reach + sw.step_m) / cov.grid_cell_m + np.sqrt(0.5)
     return float(np.pi * rho**2)
+
+
+def _have_env() -> bool:
+    """Whether the ``env`` extra (pettingzoo, gymnasium) is installed."""
+    try:
+        import swarmgames.env  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 def _numba_version() -> str | None:
@@ -715,6 +775,7 @@ def run_suite(
     dense: bool | None = None,
     mission: int | None = None,
     mission_stages: int | None = None,
+    env: bool | None = None,
 ) -> BenchResult:
     """Run the benchmark suite (module notes) and optionally write it.
 
@@ -749,6 +810,9 @@ def run_suite(
         :data:`~swarmgames.bench.mission.MISSION_ROBOTS`, none when ``quick``; 0 = none).
     mission_stages : int, optional
         Its stages (default: the preset's 60).
+    env : bool, optional
+        The learning environment's throughput records (default: when the ``env`` extra is
+        installed).
 
     Returns
     -------
@@ -848,6 +912,13 @@ def run_suite(
         rec["outputs_vs_loop"] = rec["outputs_s"] / rec["loop_s"]
         records.append(rec)
         _say(progress, f"  {rec['total_s']:.1f} s ({rec['loop_s']:.1f} s of stages)")
+    if env is None:
+        env = _have_env()
+    if env:
+        from swarmgames.bench.env import env_records
+
+        _say(progress, "vector env vs MPE simple_spread, and one env vs measuring every step")
+        records.extend(env_records(quick, seed))
     if ns3 is None:
         ns3 = not quick
     if ns3:

@@ -86,6 +86,7 @@ References
 
 from __future__ import annotations
 
+import time
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -94,13 +95,16 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 
 from swarmgames.missions.protocol import NETWORK_COLUMNS, SWARM_HEAD
 
-__all__ = ["OBSERVATION_PARTS", "REWARDS", "SwarmVectorEnv", "vector_env"]
+__all__ = ["OBSERVATION_PARTS", "REWARDS", "TIMED_PARTS", "SwarmVectorEnv", "vector_env"]
 
 #: Values of ``reward``.
 REWARDS = ("payoff", "team", "difference")
 
 #: The parts of a dict observation, in the order of the flat one.
 OBSERVATION_PARTS = ("self", "neighbours", "ids", "age", "hops", "mask", "action_mask")
+
+#: The parts of a step :attr:`SwarmVectorEnv.timings` splits its time into.
+TIMED_PARTS = ("comms", "network", "reward", "observation", "expert", "reset")
 
 #: The environment's own options (the rest of a factory's keywords are overrides).
 ENV_OPTIONS = frozenset({"reward", "max_neighbours", "observation", "mask_in_obs", "measure"})
@@ -178,6 +182,11 @@ class SwarmVectorEnv(VectorEnv):
         of N actions.
     observation_space, action_space : gymnasium.spaces.Space
         The batch of E.
+    timings : dict of float
+        Seconds spent since construction in each part of the steps: ``comms`` (the state
+        messages exchanged), ``network`` (the robots moved and the network advanced, or with
+        ``measure`` the whole recorded stage), ``reward``, ``observation`` (built from the
+        inboxes and routing tables), ``expert`` and ``reset`` (episodes built).
 
     Raises
     ------
@@ -246,6 +255,7 @@ class SwarmVectorEnv(VectorEnv):
         self._ended = np.zeros(self.num_envs, dtype=bool)
         self._expert_cache: tuple[int, np.ndarray] | None = None
         self._clock = 0  # counts steps and resets: what the stage caches are keyed by
+        self.timings = dict.fromkeys(TIMED_PARTS, 0.0)
         from swarmgames.game.kept import RowTables
 
         self._kept = RowTables()
@@ -311,6 +321,7 @@ class SwarmVectorEnv(VectorEnv):
         """Env ``e``'s next episode: the run of ``seed``, or the next of its generator."""
         from swarmgames.sim.runner import build_loop
 
+        t0 = time.perf_counter()
         if seed is not None:
             self._seeds[e] = np.random.SeedSequence(int(seed))
             episode = int(seed)
@@ -328,6 +339,7 @@ class SwarmVectorEnv(VectorEnv):
         self._loops[e], self._n_stages = loop, n_stages
         self._alive[e] = loop.faults.alive(self._time(loop))
         self._ended[e] = False
+        self.timings["reset"] += time.perf_counter() - t0
 
     def step(self, actions):
         """One control period in every env (see the module docstring)."""
@@ -353,8 +365,10 @@ class SwarmVectorEnv(VectorEnv):
         nxt = np.asarray(self.mission.action_model.apply(states))  # (E, N, A, D)
         nxt = np.take_along_axis(nxt, chosen[:, :, None, None], axis=2)[:, :, 0]
         rewards = np.zeros(e_n)
+        t0 = time.perf_counter()
         if self.reward_kind == "payoff":
             rewards = np.nan_to_num(self._payoffs(views, chosen))
+        t1 = time.perf_counter()
         records = []
         reached = np.empty_like(states)
         for e, loop in enumerate(self._loops):
@@ -369,8 +383,11 @@ class SwarmVectorEnv(VectorEnv):
                 reached[e] = record.after
             else:
                 reached[e] = loop.move(nxt[e])
+        t2 = time.perf_counter()
         if self.reward_kind != "payoff":
             rewards = self._team_rewards(states, reached)
+        self.timings["reward"] += t1 - t0 + time.perf_counter() - t2
+        self.timings["network"] += t2 - t1
         rewards = np.where(live, rewards, 0.0)
         terminations = np.zeros(e_n, dtype=bool)
         truncations = np.zeros(e_n, dtype=bool)
@@ -513,6 +530,7 @@ class SwarmVectorEnv(VectorEnv):
             raise RuntimeError("call reset() before expert_actions()")
         if self._expert_cache is not None and self._expert_cache[0] == self._clock:
             return self._expert_cache[1].copy()
+        t0 = time.perf_counter()
         out = np.zeros((self.num_envs, self.n_robots), dtype=np.int64)
         stacked = self.config.sim.controller == "game" and self.config.game.solver != "centralised"
         for envs in self._same_time_groups():
@@ -530,6 +548,7 @@ class SwarmVectorEnv(VectorEnv):
                 problem = loop.controller.problem(*view.problem_fields)
                 out[e] = loop.controller.decide(problem, loop.rng).actions
         self._expert_cache = (self._clock, out)
+        self.timings["expert"] += time.perf_counter() - t0
         return out.copy()
 
     # ------------------------------------------------------------------ observations
@@ -540,7 +559,17 @@ class SwarmVectorEnv(VectorEnv):
 
     def _observe_all(self):
         """Every env's observation arrays (E, N, ...) and action masks (E, N, A)."""
+        t0 = time.perf_counter()
         views = [loop.observe() for loop in self._loops]
+        t1 = time.perf_counter()
+        self.timings["comms"] += t1 - t0
+        try:
+            return self._observation_of(views)
+        finally:
+            self.timings["observation"] += time.perf_counter() - t1
+
+    def _observation_of(self, views):
+        """The observations and action masks of the stages ``views`` of every env."""
         states = np.stack([v.states for v in views])
         masks = self._masks(states)
         parts = self._observation_parts(views, states)

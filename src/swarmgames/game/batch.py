@@ -161,8 +161,9 @@ class LocalGameBatch:
         """The same games with every variable held at one action, its robot's in the joint
         action ``actions`` (N,) (a virtual mean at its member's, a context variable at its
         only one): games of one action whose payoff tables hold, at action 0, every
-        variable's potentials at that joint action. Their stage is a fresh one: their rows
-        are not the full games' rows.
+        variable's potentials at that joint action (whether the action model allows the
+        action or not: it is the one taken). Their stage is a fresh one: their rows are not
+        the full games' rows.
 
         Examples
         --------
@@ -187,7 +188,7 @@ class LocalGameBatch:
             self.states,
             self.is_virtual,
             np.take_along_axis(self.next_states, take[:, :, None, None], axis=2),
-            np.take_along_axis(self.action_mask, take[:, :, None], axis=2),
+            self.mask[:, :, None],  # the action taken, allowed or not
             self.pair_mask,
             self.is_context,
             self.t,
