@@ -320,7 +320,8 @@ def test_reproduce_fig1(runner, tmp_path):
 def test_bench_writes_results(runner, tmp_path):
     out = tmp_path / "bench"
     res = runner.invoke(
-        cli, ["bench", "--quick", "--sizes", "5,10", "--takeoff", "25", "--out", str(out)]
+        cli,
+        ["bench", "--quick", "--sizes", "5,10", "--takeoff", "25", "--no-env", "--out", str(out)],
     )
     assert res.exit_code == 0, res.output
     for name in ("bench.json", "bench.csv", "bench.png"):
@@ -555,3 +556,24 @@ def test_the_command_ends_with_its_status_and_all_its_output(tmp_path):
     res = _command(code=code)
     assert res.returncode == 3
     assert res.stdout.splitlines()[-2:] == ["caught 0", "handler ran"]
+
+
+def test_learn_trains_and_compares(runner, tmp_path):
+    pytest.importorskip("stable_baselines3", reason='pip install "swarmgames[rl]"')
+    out = tmp_path / "learn"
+    args = ["learn", "--set", "swarm.n_robots=3", "--set", "sim.duration_s=3.0", "--envs", "2"]
+    args += ["--agent-steps", "200", "--eval-seeds", "100,101", "--out", str(out)]
+    res = runner.invoke(cli, args)
+    assert res.exit_code == 0, res.output
+    for name in ("model.zip", "normalize.pkl", "curve.csv", "evaluation.csv", "summary.json"):
+        assert (out / name).is_file(), name
+    summary = json.loads((out / "summary.json").read_text())
+    assert set(summary["policies"]) == {"random", "expert", "trained"}
+    assert summary["agent_steps"] >= 200 and "trained" in res.output
+
+
+def test_learn_rejects_bad_input(runner, tmp_path):
+    res = runner.invoke(cli, ["learn", "--set", "swarm.n_robots=0", "--out", str(tmp_path / "l")])
+    assert res.exit_code == 2 and "n_robots" in res.output
+    res = runner.invoke(cli, ["learn", "--eval-seeds", "a,b", "--out", str(tmp_path / "l")])
+    assert res.exit_code == 2 and "--eval-seeds" in res.output

@@ -49,7 +49,7 @@ MAY_IMPORT = {
 ABOVE_SIM = ("swarmgames.sim", *MAY_IMPORT["swarmgames.sim"])
 MAY_IMPORT["swarmgames.experiments"] = ABOVE_SIM
 MAY_IMPORT["swarmgames.env"] = ABOVE_SIM
-MAY_IMPORT["swarmgames.bench"] = (*ABOVE_SIM, "swarmgames.experiments")
+MAY_IMPORT["swarmgames.bench"] = (*ABOVE_SIM, "swarmgames.experiments", "swarmgames.env")
 
 
 def _imports(path: Path) -> set[str]:

@@ -68,3 +68,21 @@ def sorted_unique(keys: np.ndarray) -> np.ndarray:
     keep[0] = True
     np.not_equal(s[1:], s[:-1], out=keep[1:])
     return s[keep]
+
+
+def pad_columns(a: np.ndarray, width: int, fill) -> np.ndarray:
+    """``a`` (R, C) widened to (R, ``width``) with ``fill`` in the new columns (``a`` itself
+    when already that wide): ``np.pad``'s constant padding of the last axis, without its
+    general machinery (tens of microseconds a call).
+
+    Examples
+    --------
+    >>> pad_columns(np.array([[1, 2]]), 3, -1).tolist()
+    [[1, 2, -1]]
+    """
+    a = np.asarray(a)
+    if a.shape[1] >= width:
+        return a
+    out = np.full((a.shape[0], width), fill, dtype=a.dtype)
+    out[:, : a.shape[1]] = a
+    return out

@@ -87,11 +87,12 @@ class TopologySnapshot:
         return cls(time, n, owner, dest, hops[owner, dest].astype(np.int16), nh)
 
     @classmethod
-    def concat(cls, snapshots) -> TopologySnapshot:
+    def concat(cls, snapshots, time: float | None = None) -> TopologySnapshot:
         """Independent swarms side by side as one snapshot: swarm ``e``'s robot ``i`` becomes
         robot ``offset_e + i`` (``offset_e`` the robots of the swarms before it), and no entry
         joins two swarms (a block-diagonal network). The swarms' snapshots must be taken at
-        one time.
+        one time, unless ``time`` gives the one the result holds (swarms whose own clocks
+        differ).
 
         Examples
         --------
@@ -104,7 +105,7 @@ class TopologySnapshot:
         if not snaps:
             raise ValueError("concat needs at least one snapshot")
         times = {float(s.time) for s in snaps}
-        if len(times) != 1:
+        if time is None and len(times) != 1:
             raise ValueError(f"snapshots must share one time (got {sorted(times)})")
         sizes = np.array([s.n_robots for s in snaps], dtype=np.int64)
         offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
@@ -112,7 +113,7 @@ class TopologySnapshot:
         shift = np.repeat(offsets, counts)
         nh = np.concatenate([s.next_hop for s in snaps]).astype(np.int64)
         return cls(
-            snaps[0].time,
+            snaps[0].time if time is None else float(time),
             int(sizes.sum()),
             np.concatenate([s.owner for s in snaps]) + shift,
             np.concatenate([s.dest for s in snaps]) + shift,
@@ -214,14 +215,18 @@ def _check_entries(n_robots, owner, dest, hops, next_hop) -> None:
     for name, arr, low in (("owner", owner, 0), ("dest", dest, 0), ("next_hop", nxt, -1)):
         if arr.shape != owner.shape:
             continue  # the shape rule reports it
-        bad = ~np.isfinite(arr) | (arr < low) | (arr >= n) | (arr != np.round(arr))
+        bad = (arr < low) | (arr >= n)
+        if arr.dtype.kind not in "iu":  # whole numbers: integer arrays are, by their type
+            bad |= ~np.isfinite(arr) | (arr != np.round(arr))
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
             raise ValueError(
                 f"{name} must be robot ids in [{low}, {n}) (got {arr[k].item()!r} in entry {k})"
             )
     if hops.shape == owner.shape:
-        bad = ~np.isfinite(hops) | (hops < 1) | (hops > MAX_HOPS) | (hops != np.round(hops))
+        bad = (hops < 1) | (hops > MAX_HOPS)
+        if hops.dtype.kind not in "iu":
+            bad |= ~np.isfinite(hops) | (hops != np.round(hops))
         if bad.any():
             k = int(np.flatnonzero(bad)[0])
             raise ValueError(

@@ -23,6 +23,7 @@ def tiny():
         dense=True,
         mission=12,
         mission_stages=3,
+        env=False,
     )
 
 
@@ -86,7 +87,14 @@ def test_quick_runs_no_whole_mission(monkeypatch):
 
     monkeypatch.setattr(suite, "mission_record", refuse)
     result = run_suite(
-        quick=True, sizes=(5,), repeats=1, n_single=2, ns3=False, progress=False, takeoff=0
+        quick=True,
+        sizes=(5,),
+        repeats=1,
+        n_single=2,
+        ns3=False,
+        progress=False,
+        takeoff=0,
+        env=False,
     )
     assert not [r for r in result.records if r["benchmark"] == "mission"]
 
@@ -187,3 +195,19 @@ def test_targets_are_reported_pass_or_fail_never_asserted(tiny):
         # The physical estimate: N K A G + N K² A² sweeps operations at 1 ns each.
         assert r["physical_ops"] > 0 and r["ratio_to_physical"] > 0 and r["first_stage_s"] > 0
     assert "vs est." in [c.header for c in tiny.table().columns]
+
+
+def test_learning_throughput_records():
+    pytest.importorskip("gymnasium", reason='pip install "swarmgames[env]"')
+    from swarmgames.bench.env import env_records
+
+    recs = env_records(quick=True, rounds=1, cases=((3, 2),))
+    vs, single = recs
+    assert vs["benchmark"] == "env_vs_mpe" and (vs["n_robots"], vs["num_envs"]) == (3, 2)
+    shares = [v for k, v in vs.items() if k.startswith("share_")]
+    assert sum(shares) == pytest.approx(1.0, abs=0.05) and vs["share_reward"] > 0
+    if "mpe_agent_steps_per_s" in vs:  # mpe2 installed
+        assert vs["mpe_per_swarmgames"] == pytest.approx(
+            vs["mpe_agent_steps_per_s"] / vs["agent_steps_per_s"]
+        )
+    assert single["benchmark"] == "env_single" and single["measured_per_default"] > 0

@@ -145,8 +145,7 @@ def test_render_and_errors():
         env.step({"uav_0": 99})
 
 
-def test_flat_observations_and_a_supersuit_vector_env():
-    ss = pytest.importorskip("supersuit")
+def test_flat_observations():
     env = _env(observation="flat", max_neighbours=3)
     obs, _ = env.reset(seed=0)
     d = 3
@@ -155,18 +154,7 @@ def test_flat_observations_and_a_supersuit_vector_env():
     dict_obs, _ = flat.reset(seed=0)
     parts = [np.ravel(dict_obs["uav_0"][k]) for k in ("self", "neighbours", "ids", "age")]
     np.testing.assert_array_equal(obs["uav_0"][: sum(p.size for p in parts)], np.concatenate(parts))
-    # SuperSuit's standard wrappers: leaving agents kept as zeros, every robot of 3 copies
-    # of the environment one row of a Gymnasium vector environment.
-    vec = ss.concat_vec_envs_v1(
-        ss.pettingzoo_env_to_vec_env_v1(ss.black_death_v3(env)),
-        3,
-        num_cpus=0,
-        base_class="gymnasium",
-    )
-    first, _ = vec.reset(seed=0)
-    assert first.shape == (15, obs["uav_0"].size)
-    _, rew, *_ = vec.step(np.zeros(15, dtype=int))
-    assert rew.shape == (15,) and np.isfinite(rew).all()
+    assert env.observation_space("uav_0").contains(obs["uav_0"])
 
 
 def test_the_stage_time_is_the_runs_clock():

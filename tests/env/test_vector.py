@@ -187,7 +187,9 @@ def _eq1_payoffs(problem, actions):
 
 
 def test_payoff_reward_is_eq1_at_the_joint_action_on_three_robots():
-    env = vector_env("coverage", 1, swarm__n_robots=3, sim__duration_s=3.0, comms__model="ideal")
+    env = vector_env(
+        "coverage", 1, reward="payoff", swarm__n_robots=3, sim__duration_s=3.0, comms__model="ideal"
+    )
     _, info = env.reset(seed=0)
     rng = np.random.default_rng(5)
     for _ in range(2):
@@ -244,7 +246,7 @@ def test_one_robot_and_flat_observations():
 
 
 def test_measure_gives_the_runs_records():
-    env = _venv(2, measure=True)
+    env = _venv(2, measure=True, reward="payoff")
     _, info = env.reset(seed=0)
     _, rew, _, _, info = env.step(env.expert_actions())
     records = info["records"]
@@ -255,7 +257,7 @@ def test_measure_gives_the_runs_records():
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"reward": "score"}, "reward must be one of"),
+        ({"reward": "score"}, "reward must be one of difference, payoff, team"),
         ({"observation": "image"}, "observation must be"),
         ({"max_neighbours": 0}, "max_neighbours must be an integer >= 1"),
     ],

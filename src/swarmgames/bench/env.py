@@ -4,7 +4,7 @@
 run (so that the machine's load weighs on both alike):
 
 * ``env_vs_mpe`` — :func:`~swarmgames.env.vector.vector_env` on the default scenario with N
-  UAVs and E envs (its default payoff reward) against MPE's ``simple_spread`` with the same
+  UAVs and E envs (its default difference reward) against MPE's ``simple_spread`` with the same
   N agents (one env, as PettingZoo ships it), in agent-steps per second; with the share of
   the vector env's time in each part of a step (its ``timings``: the state messages, the
   network, the reward, the observations, the episodes built);
@@ -82,12 +82,15 @@ def _mpe_rate(n: int, steps: int, seed: int) -> float | None:
     return steps * n / wall
 
 
-def env_records(quick: bool = False, seed: int = 0, rounds: int | None = None) -> list[dict]:
-    """The ``env_vs_mpe`` and ``env_single`` records (module notes); ``rounds`` alternating
-    rounds of each side (default 3, quick 2), the medians reported."""
+def env_records(
+    quick: bool = False, seed: int = 0, rounds: int | None = None, cases=ENV_CASES
+) -> list[dict]:
+    """The ``env_vs_mpe`` records of ``cases`` ((N, E) pairs) and the ``env_single`` record
+    (module notes); ``rounds`` alternating rounds of each side (default 3, quick 2), the
+    medians reported."""
     rounds = (2 if quick else 3) if rounds is None else int(rounds)
     records: list[dict[str, Any]] = []
-    for n, e in ENV_CASES:
+    for n, e in cases:
         steps = max(2, (8 if quick else 20) * 64 // (e * max(1, n // 7)))
         ours, mpe, shares = [], [], []
         for _ in range(rounds):

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from swarmgames.arrays import freeze_fields
+from swarmgames.arrays import freeze_fields, pad_columns
 from swarmgames.game.local import LocalViews, pad_rows
 
 __all__ = ["BeliefInbox", "BeliefTable"]
@@ -81,8 +81,7 @@ class BeliefTable:
         width = max(self.nbh.shape[1], new.nbh.shape[1])
 
         def padded(t: BeliefTable) -> np.ndarray:
-            extra = width - t.nbh.shape[1]
-            return np.pad(t.nbh, ((0, 0), (0, extra)), constant_values=-1) if extra else t.nbh
+            return pad_columns(t.nbh, width, -1)
 
         owner = np.concatenate([self.owner, new.owner])
         sender = np.concatenate([self.sender, new.sender])
@@ -202,8 +201,7 @@ class BeliefInbox:
             ).astype(np.int32)
 
         width = max(p.nbh.shape[1] for p in parts)
-        nbh = [np.pad(p.nbh, ((0, 0), (0, width - p.nbh.shape[1])), constant_values=-1)
-               for p in parts]  # fmt: skip
+        nbh = [pad_columns(p.nbh, width, -1) for p in parts]
         context = [p.ctx_indptr is not None for p in parts]
         if any(context) and not all(context):
             raise ValueError("either every inbox holds a context or none does")

@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from swarmgames.arrays import freeze_fields, sorted_unique
+from swarmgames.arrays import freeze_fields, pad_columns, sorted_unique
 from swarmgames.comms.beliefs import BeliefInbox, BeliefTable
 from swarmgames.comms.flooding import flood
 from swarmgames.comms.load import offered_load
@@ -373,11 +373,8 @@ class BeliefComms:
         if self.averaged_rows:  # the robot's own row in its game is its table row
             rows_padded = pad_rows(indptr, members, np.arange(n))
         width = max(rows_padded.shape[1], self.table.nbh.shape[1])
-        own_nbh = np.pad(
-            rows_padded, ((0, 0), (0, width - rows_padded.shape[1])), constant_values=-1
-        )
-        their_nbh = self.table.nbh[idx[use]]
-        their_nbh = np.pad(their_nbh, ((0, 0), (0, width - their_nbh.shape[1])), constant_values=-1)
+        own_nbh = pad_columns(rows_padded, width, -1)
+        their_nbh = pad_columns(self.table.nbh[idx[use]], width, -1)
         # By owner, its own entry first, then its members in increasing order: one key, unique
         # per entry, whose two blocks (own entries, then the members' in row order) are each
         # sorted already, so the stable sort merges two runs.

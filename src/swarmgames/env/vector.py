@@ -58,6 +58,11 @@ returned is the new episode's first, and the true final observation is
 
 Rewards (``reward``), all computed from what the step simulated:
 
+``"difference"`` (the default)
+    The team metric minus the metric of the same states with robot i at the state it held
+    before the step (its move undone): robot i's own contribution, D_i = G(z) − G(z_{−i})
+    (the mission's ``moves_undone`` hook gives every G(z_{−i}) at once where it has one).
+    It trains PPO to the best coverage of the three (docs/env.md).
 ``"payoff"``
     Robot i's payoff M_i (eq. 1) in its true local game (actual states, N_i(h) from its
     routing table, no virtual means) at the joint action: the ``payoff`` column of
@@ -65,9 +70,6 @@ Rewards (``reward``), all computed from what the step simulated:
 ``"team"``
     The mission's first swarm metric (coverage, dBm, for the coverage mission) of the states
     the step reached, the same for every robot of the env.
-``"difference"``
-    The team metric minus the metric of the same states with robot i at the state it held
-    before the step (its move undone): robot i's own contribution, D_i = G(z) − G(z_{−i}).
 
 Seeding: ``reset(seed=s)`` runs env e with ``seed = s + e`` (Gymnasium's convention; a list
 gives each env its own), every draw of :func:`swarmgames.run` from it; ``reset()`` without a
@@ -98,7 +100,7 @@ from swarmgames.missions.protocol import NETWORK_COLUMNS, SWARM_HEAD
 __all__ = ["OBSERVATION_PARTS", "REWARDS", "TIMED_PARTS", "SwarmVectorEnv", "vector_env"]
 
 #: Values of ``reward``.
-REWARDS = ("payoff", "team", "difference")
+REWARDS = ("difference", "payoff", "team")
 
 #: The parts of a dict observation, in the order of the flat one.
 OBSERVATION_PARTS = ("self", "neighbours", "ids", "age", "hops", "mask", "action_mask")
@@ -156,7 +158,8 @@ class SwarmVectorEnv(VectorEnv):
     config : ScenarioConfig
     num_envs : int
         E, >= 1.
-    reward : {"payoff", "team", "difference"}
+    reward : {"difference", "payoff", "team"}
+        Default ``"difference"`` (module notes).
     max_neighbours : int, optional
         K, the rows of the ``neighbours`` observation (default N - 1, every other robot).
     observation : {"dict", "flat"}
@@ -204,7 +207,7 @@ class SwarmVectorEnv(VectorEnv):
         config,
         num_envs: int = 1,
         *,
-        reward: str = "payoff",
+        reward: str = "difference",
         max_neighbours: int | None = None,
         observation: str = "dict",
         mask_in_obs: bool = False,
@@ -245,6 +248,9 @@ class SwarmVectorEnv(VectorEnv):
         self.state_dim = int(self.mission.state_dim)
         self.n_actions = int(self.mission.action_model.n_actions)
         self.hops = int(config.network.hops)
+        from swarmgames.missions.protocol import MissionHooks
+
+        self._moves_undone = MissionHooks.of(self.mission).moves_undone
         ideal = config.comms.model == "ideal"
         self.max_age_s = 0.0 if ideal else float(config.comms.max_age_s)
         self._build_spaces()
@@ -439,10 +445,9 @@ class SwarmVectorEnv(VectorEnv):
     # ------------------------------------------------------------------ the stage
     def stage_problem(self, envs=None, *, keep_games: bool = False):
         """The stage the envs ``envs`` (default: all, which must share one stage time)
-        observe now, as one :class:`~swarmgames.game.problem.StageProblem` of their robots
-        side by side (``swarms`` = their number); env ``envs[j]``'s robot i is robot
-        ``j N + i``."""
-        from swarmgames.game.problem import StageProblem
+        observe now, as one :class:`~swarmgames.game.problem.StageProblem` of their robots'
+        local games side by side (``swarms`` = their number; no global regret measured);
+        env ``envs[j]``'s robot i is robot ``j N + i``."""
         from swarmgames.topology import TopologySnapshot
 
         envs = list(range(self.num_envs)) if envs is None else [int(e) for e in envs]
@@ -450,25 +455,17 @@ class SwarmVectorEnv(VectorEnv):
         times = {v.t for v in views}
         if len(times) != 1:
             raise ValueError(f"envs {envs} observe different stage times {sorted(times)}")
-        ctrl = self._loops[envs[0]].controller
-        m = self.mission
         inbox = views[0].messages
         if len(views) > 1:
             inbox = type(inbox).concat([v.messages for v in views])
-        return StageProblem(
-            t=views[0].t,
-            snapshot=TopologySnapshot.concat([v.snapshot for v in views]),
-            h=ctrl.hops,
-            states=np.concatenate([v.states for v in views]),
-            messages=inbox,
-            action_model=m.action_model,
-            potentials=m.potentials,
-            solver=ctrl.solver,
-            virtual_mean=ctrl.virtual_mean,
-            buckets=ctrl.buckets,
+        return self._loops[envs[0]].controller.problem(
+            views[0].t,
+            TopologySnapshot.concat([v.snapshot for v in views]),
+            np.concatenate([v.states for v in views]),
+            inbox,
+            centralised=False,  # the robots' local games: a centralised solve is per env
             global_regret=False,
             keep_games=keep_games,
-            refine=ctrl.refine,
             kept=self._kept,
             swarms=len(views),
         )
@@ -505,6 +502,12 @@ class SwarmVectorEnv(VectorEnv):
             team = self._metric(reached[e][alive], before[e][alive], t)
             if self.reward_kind == "team":
                 out[e] = team
+                continue
+            undone = None
+            if self._moves_undone is not None:
+                undone = self._moves_undone(reached[e][alive], before[e][alive], t)
+            if undone is not None:
+                out[e, alive] = team - np.asarray(undone, dtype=float)
                 continue
             for i in np.flatnonzero(alive):
                 undone = reached[e].copy()
@@ -600,11 +603,9 @@ class SwarmVectorEnv(VectorEnv):
         inbox = views[0].messages
         if e_count > 1:
             inbox = type(inbox).concat([v.messages for v in views])
-        snap = (
-            views[0].snapshot
-            if e_count == 1
-            else TopologySnapshot.concat([_at_time(v.snapshot, 0.0) for v in views])
-        )
+        snap = views[0].snapshot
+        if e_count > 1:  # the envs' clocks may differ: hop counts do not depend on them
+            snap = TopologySnapshot.concat([v.snapshot for v in views], time=0.0)
         total = e_count * n
         lv = inbox.views()
         if inbox.exact:  # ideal delivery: the exact states, age 0
@@ -718,14 +719,6 @@ def _take(obs, e: int):
     if isinstance(obs, dict):
         return {key: np.array(val[e]) for key, val in obs.items()}
     return np.array(obs[e])
-
-
-def _at_time(snapshot, t: float):
-    """``snapshot`` as if taken at ``t`` (to side envs whose tables were taken at other
-    times by their own clocks)."""
-    from dataclasses import replace
-
-    return snapshot if snapshot.time == t else replace(snapshot, time=t)
 
 
 def _hops(snapshot, members: np.ndarray, valid: np.ndarray) -> np.ndarray:

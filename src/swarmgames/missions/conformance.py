@@ -27,8 +27,10 @@ What is checked
   ``t``; one written without it is one line naming the hook and the signature expected;
 * the optional hooks, where present: ``robot_metrics`` (finite ``(N,)`` arrays), ``summary``
   (JSON-serialisable values), ``draw`` (runs on a matplotlib Axes), ``extent`` (a box with
-  ``xmin < xmax`` and ``ymin < ymax``) and ``baselines`` (named callables that return one
-  valid action index per robot and leave the states they are given unchanged).
+  ``xmin < xmax`` and ``ymin < ymax``), ``moves_undone`` (None, or the first swarm metric
+  with each robot's move undone in turn, equal to calling ``swarm_metrics`` for each) and
+  ``baselines`` (named callables that return one valid action index per robot and leave the
+  states they are given unchanged).
 """
 
 from __future__ import annotations
@@ -213,6 +215,8 @@ def check_mission(mission: Any, n_robots: int = 4, seed: int = 0) -> None:
     # summary reads the swarm_metrics columns: unknown when that hook could not be called.
     skip = set(old) | ({"summary"} if "swarm_metrics" in old else set())
     problems += _optional_hooks(mission, s1, keys or [], skip=skip)
+    if hasattr(mission, "moves_undone") and keys and "swarm_metrics" not in old:
+        problems += _moves_undone_problems(mission, s1, s0, keys[0])
     if problems:
         raise MissionCheckError(label, problems)
 
@@ -332,6 +336,34 @@ def _optional_hooks(mission: Any, states: np.ndarray, keys: list[str], skip: set
     if hasattr(mission, "baselines"):
         found += _baseline_problems(mission, states)
     return found
+
+
+def _moves_undone_problems(mission: Any, states, previous, name: str) -> list[str]:
+    """The ``moves_undone`` hook: None, or ``swarm_metrics``' first value ``name`` with each
+    robot's move undone in turn, (N,), equal to the N calls it stands for."""
+    t = _TIMES[1]
+    try:
+        out = mission.moves_undone(states, previous, t)
+    except Exception as exc:
+        return [f"moves_undone raised {type(exc).__name__}: {exc}"]
+    if out is None:
+        return []
+    out = np.asarray(out)
+    n = states.shape[0]
+    if out.shape != (n,):
+        return [f"moves_undone must return shape ({n},) or None (got {out.shape})"]
+    want = np.empty(n)
+    for i in range(n):
+        undone = np.array(states, dtype=float)
+        undone[i] = previous[i]
+        want[i] = float(mission.swarm_metrics(undone, previous, t)[name])
+    if not np.allclose(out, want, rtol=1e-9, atol=1e-9):
+        i = int(np.argmax(np.abs(out - want)))
+        return [
+            f"moves_undone must equal swarm_metrics' {name!r} with each robot's move undone: "
+            f"robot {i} gives {out[i]!r}, swarm_metrics {want[i]!r}"
+        ]
+    return []
 
 
 def _baseline_problems(mission: Any, states: np.ndarray) -> list[str]:

@@ -26,6 +26,11 @@ checks them too):
 * ``draw(ax)``: draw the mission's background (a region, a goal) on a matplotlib Axes, under
   the robots of ``paths.png`` and of every animation frame;
 * ``extent() -> (xmin, xmax, ymin, ymax)``: the area plots keep in view, metres;
+* ``moves_undone(states, previous, t) -> (N,) array or None``: the first of
+  ``swarm_metrics``' values with each robot's move undone in turn (robot i at
+  ``previous[i]``, the others at ``states``), equal to calling ``swarm_metrics`` N times:
+  the learning environment's difference reward (:mod:`swarmgames.env.vector`) asks for it
+  once a step instead; None where the mission computes it no faster;
 * ``baselines``: the mission's own reference controllers, a mapping of name to a
   :data:`Baseline`, a callable that returns every robot's action index ``(N,)`` from the
   robots' true states ``(N, D)`` (e.g. the coverage mission's ``"lloyd"``, Lloyd/Voronoi
@@ -118,7 +123,7 @@ RESERVED_COLUMNS = frozenset(
 )
 
 #: Optional methods and attributes of a mission (see the module docstring).
-OPTIONAL_HOOKS = ("robot_metrics", "summary", "draw", "extent", "baselines")
+OPTIONAL_HOOKS = ("robot_metrics", "summary", "draw", "extent", "moves_undone", "baselines")
 
 #: A mission's baseline controller (the ``baselines`` hook): the robots' true states
 #: ``(N, D)`` to every robot's action index ``(N,)``, an integer array of valid actions of the
@@ -140,6 +145,8 @@ class MissionHooks:
     summary : callable ``(times (S,), swarm {name: (S,) array}) -> {name: value}`` or None
     draw : callable ``(ax) -> None`` or None
     extent : callable ``() -> (xmin, xmax, ymin, ymax)`` or None
+    moves_undone : callable ``(states (N, D), previous (N, D), t) -> (N,) array or None``,
+        or None
     baselines : mapping of str to Baseline (read-only)
     """
 
@@ -147,6 +154,7 @@ class MissionHooks:
     summary: Callable[..., Mapping[str, Any]] | None = None
     draw: Callable[[Any], None] | None = None
     extent: Callable[[], tuple[float, float, float, float]] | None = None
+    moves_undone: Callable[..., np.ndarray | None] | None = None
     baselines: Mapping[str, Baseline] = field(default_factory=lambda: MappingProxyType({}))
 
     @classmethod

@@ -88,9 +88,10 @@ class Controller(Protocol):
         where it was afterwards), or nothing."""
         ...
 
-    def problem(self, t: float, snapshot, states, messages, *, keep_games=False) -> StageProblem:
+    def problem(self, t: float, snapshot, states, messages, **options) -> StageProblem:
         """The stage problem at time ``t`` with the routing tables ``snapshot``, the true
-        ``states`` and the ``messages`` every robot holds."""
+        ``states`` and the ``messages`` every robot holds; ``options`` replace the
+        controller's values of the problem's other fields."""
         ...
 
     def decide(self, problem: StageProblem, rng: np.random.Generator) -> StageSolution:
@@ -129,28 +130,27 @@ class _Controller:
     def plan(self, loop) -> None:
         """Nothing: the controller decides from the stage alone."""
 
-    def problem(self, t: float, snapshot, states, messages, *, keep_games=False) -> StageProblem:
+    def problem(self, t: float, snapshot, states, messages, **options) -> StageProblem:
         """The stage problem at time ``t`` (s) with the routing tables ``snapshot``, the true
         ``states`` (N, D) and the ``messages`` every robot holds, with this controller's
-        mission, solver and options; ``keep_games``: the solved games and marginals are kept
-        in the solution."""
+        mission, solver and options; ``options``: other values of the problem's fields
+        (``keep_games=True``: the solved games and marginals are kept in the solution;
+        ``swarms``, ``global_regret``, ``kept``)."""
         m = self.mission
+        fields = {
+            "h": self.hops,
+            "action_model": m.action_model,
+            "potentials": m.potentials,
+            "solver": self.solver,
+            "virtual_mean": self.virtual_mean,
+            "centralised": self.centralised,
+            "buckets": self.buckets,
+            "global_regret": self.global_regret,
+            "refine": self.refine,
+            "kept": self.kept,
+        }
         return StageProblem(
-            t=t,
-            snapshot=snapshot,
-            h=self.hops,
-            states=states,
-            messages=messages,
-            action_model=m.action_model,
-            potentials=m.potentials,
-            solver=self.solver,
-            virtual_mean=self.virtual_mean,
-            centralised=self.centralised,
-            buckets=self.buckets,
-            global_regret=self.global_regret,
-            keep_games=keep_games,
-            refine=self.refine,
-            kept=self.kept,
+            t=t, snapshot=snapshot, states=states, messages=messages, **{**fields, **options}
         )
 
     def measure(self, problem: StageProblem, actions, *, expost: bool | None = None):

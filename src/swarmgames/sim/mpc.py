@@ -99,9 +99,9 @@ class MpcController:
         self._plan = None if best == 0 else candidates[best]
         self._plan_s = time.perf_counter() - t0
 
-    def problem(self, t: float, snapshot, states, messages, *, keep_games=False) -> StageProblem:
+    def problem(self, t: float, snapshot, states, messages, **options) -> StageProblem:
         """The stage problem (the game controller's)."""
-        return self.inner.problem(t, snapshot, states, messages, keep_games=keep_games)
+        return self.inner.problem(t, snapshot, states, messages, **options)
 
     def decide(self, problem: StageProblem, rng) -> StageSolution:
         """The planned first action of this stage (the myopic decision when it is the best,

@@ -79,6 +79,12 @@ class CoverageMission:
         is not read)."""
         return {"coverage": self._coverage().coverage(states)}
 
+    def moves_undone(self, states: np.ndarray, previous: np.ndarray, t: float) -> np.ndarray | None:
+        """``coverage`` with each robot's move undone in turn, (N,) dBm
+        (:meth:`~swarmgames.missions.coverage.potentials.CoveragePotentials.
+        coverage_moves_undone`)."""
+        return self._coverage().coverage_moves_undone(states, previous)
+
     def summary(self, times: np.ndarray, swarm: dict[str, np.ndarray]) -> dict[str, Any]:
         """Coverage at the first and the last stage, dBm."""
         cov = swarm.get("coverage", np.zeros(0))

@@ -313,6 +313,28 @@ class CoveragePotentials:
         :math:`E[\\max_i \\psi_R(S_i, r) \\mid r \\in \\mathcal{R}]`, dBm."""
         return float(self.roi.expectation(self.best_signal(positions)))
 
+    def coverage_moves_undone(self, positions: np.ndarray, previous: np.ndarray):
+        """:meth:`coverage` of ``positions`` (N, >= 3) with each robot's move undone in turn
+        (robot i at ``previous[i]``), (N,) dBm, bit for bit :meth:`coverage` of each such
+        swarm: one signal field per position, and per cell the best and second-best current
+        signal (so that the swarm without robot i's move holds the best of the others and
+        robot i's previous signal). None where :meth:`coverage` takes the nearest UAV's
+        signal instead of the fields (large swarms)."""
+        pos = np.asarray(positions, dtype=float)[..., :3].reshape(-1, 3)
+        prev = np.asarray(previous, dtype=float)[..., :3].reshape(-1, 3)
+        n, pts = pos.shape[0], self.roi.points
+        if n == 0 or prev.shape != pos.shape or n * pts.shape[0] > _DENSE_METRIC_ELEMS:
+            return None
+        fields = self.signal.field(np.concatenate([pos, prev]), pts)
+        now, before = fields[:n], fields[n:]
+        best_k = np.argmax(now, axis=0)
+        best = now[best_k, np.arange(now.shape[1])]
+        rest = now.copy()
+        rest[best_k, np.arange(now.shape[1])] = -np.inf
+        second = rest.max(axis=0)
+        others = np.where(best_k[None, :] == np.arange(n)[:, None], second, best)
+        return np.asarray(self.roi.expectation(np.maximum(others, before)), dtype=float)
+
     # ------------------------------------------------------------------ potentials
     def unary(self, batch) -> np.ndarray:
         """:math:`\\phi_u(k, x_k)` of eq. 5 for every game, variable and action, (B, K, A)."""
