@@ -218,6 +218,19 @@ def test_check_mission_names_every_problem(mission, problems):
         assert problem in text, text
 
 
+def test_a_small_global_draw_is_caught_wherever_the_global_generator_stands():
+    """A draw inside the Mersenne Twister's current block leaves its key unchanged; the
+    check compares the position too, whatever earlier code drew."""
+    saved = np.random.get_state()  # noqa: NPY002
+    try:
+        np.random.seed(0)  # noqa: NPY002
+        np.random.random(10)  # noqa: NPY002 - mid-block: the next small draw keeps the key
+        with pytest.raises(MissionCheckError, match="global random state"):
+            check_mission(_Global())
+    finally:
+        np.random.set_state(saved)  # noqa: NPY002
+
+
 def test_check_mission_reports_missing_attributes_at_once():
     class Half:
         name = "half"

@@ -76,6 +76,16 @@ class MissionCheckError(ValueError):
         )
 
 
+def _global_random_state() -> tuple[bytes, int, int, float]:
+    """numpy's global Mersenne Twister state: its key, position and cached Gaussian.
+
+    A draw always moves the position, so comparing the whole state catches a draw of any
+    size, where the key alone changes only when the generator refills its block.
+    """
+    _, key, pos, has_gauss, cached = np.random.get_state()  # noqa: NPY002 - read, not drawn
+    return key.tobytes(), int(pos), int(has_gauss), float(cached)
+
+
 def _line_snapshot(n: int) -> TopologySnapshot:
     """Robots 0..n-1 on a line, each linked to the next: BFS hop counts."""
     idx = np.arange(n)
@@ -152,13 +162,13 @@ def check_mission(mission: Any, n_robots: int = 4, seed: int = 0) -> None:
         fail(f"state_dim must be an integer >= 3 (x, y, z first) (got {dim!r})")
 
     # initial_states: shape, finite, seeded, no global random state.
-    before = np.random.get_state()[1].copy()  # noqa: NPY002 - checking it is untouched
+    before = _global_random_state()
     try:
         s0 = np.asarray(mission.initial_states(n_robots, np.random.default_rng(seed)), float)
         again = np.asarray(mission.initial_states(n_robots, np.random.default_rng(seed)), float)
     except Exception as exc:
         fail(f"initial_states(n_robots, rng) raised {type(exc).__name__}: {exc}")
-    if not np.array_equal(np.random.get_state()[1], before):  # noqa: NPY002
+    if _global_random_state() != before:
         problems.append("initial_states draws from numpy's global random state; use the rng")
     if s0.shape != (n_robots, dim):
         fail(f"initial_states must return shape ({n_robots}, {dim}) (got {s0.shape})")
