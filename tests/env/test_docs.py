@@ -15,6 +15,7 @@ SMALL = {
     'vector_env("coverage", 64,': 'vector_env("coverage", 2,',
     "range(40)": "range(3)",
     'sb3_vec_env("coverage", 16,': 'sb3_vec_env("coverage", 2,',
+    "batch_size=1024)": "batch_size=128)",  # 2 x 7 agents x 64 steps = 896 = 7 x 128
     "model.learn(10_000)": "model.learn(200)",
     'recipe_config("coverage")': 'recipe_config("coverage", ["sim.duration_s=3.0"])',
     "num_envs=16": "num_envs=2",
