@@ -215,11 +215,13 @@ def _pair_batch(seed, b=6, k=7, spread=60.0):
     return games_of(mask, states, nxt, amask)
 
 
-@pytest.mark.parametrize("crowding", [0.0, 0.1])
-def test_pair_source_equals_the_weighted_pair_table(crowding):
+@pytest.mark.parametrize(("crowding", "link_term"), [(0.0, "signal"), (0.1, "signal"),
+                                                     (0.1, "off"), (0.0, "off")])  # fmt: skip
+def test_pair_source_equals_the_weighted_pair_table(crowding, link_term):
     pot = CoveragePotentials(
-        ROI, SIGNAL, separation_m=50.0, separation_cost_db=crowding, alpha_b=0.002
-    )
+        ROI, SIGNAL, separation_m=50.0, separation_cost_db=crowding, alpha_b=0.002,
+        link_term=link_term,
+    )  # fmt: skip
     batch = _pair_batch(7)
     src = pot.pair_source(batch, 0.004, np.float32)
     want = 0.004 * pot.pair_table(batch, np.float32)
@@ -232,11 +234,15 @@ def test_pair_source_equals_the_weighted_pair_table(crowding):
     )
     got = src.table(np.arange(6))
     assert got.dtype == np.float32 and np.all(got[~valid] == 0.0)
-    # float32: the logarithm and d² of two computations, a few ulp apart.
-    np.testing.assert_allclose(got[valid], want[valid], rtol=1e-6, atol=1e-9)
+    # float32: the logarithm and d² of two computations, a few ulp apart. Alone, the
+    # penalty 1 - d / d_sep cancels near d_sep: a few ulp of its scale, not of itself.
+    atol = 1e-9 if link_term == "signal" else 1e-6 * float(np.abs(want).max())
+    np.testing.assert_allclose(got[valid], want[valid], rtol=1e-6, atol=atol)
     if crowding:  # close pairs pay the penalty: the table is not the signal alone
         plain = CoveragePotentials(ROI, SIGNAL, alpha_b=0.002).pair_source(batch, 0.004, "float32")
         assert (plain.table(np.arange(6)) > got)[valid].any()
+    if link_term == "off":  # the crowding penalty alone: 0 beyond its reach, < 0 within
+        assert np.all(got <= 0.0) and (got < 0.0).any() == bool(crowding)
     # The table's values at a profile, without the table, bit for bit; sub-batches alike.
     x = np.argmax(batch.action_mask, axis=2)
     at = np.take_along_axis(got, x[:, None, None, :, None], axis=4)[..., 0]
@@ -272,6 +278,9 @@ def test_pair_source_only_for_float32_with_the_compiled_kernel():
     assert CoveragePotentials(ROI, SIGNAL).pair_source(batch, 0.001, np.float64) is None
     numpy = CoveragePotentials(ROI, SIGNAL, kernel="numpy")
     assert numpy.pair_source(batch, 0.001, np.float32) is None
+    assert not CoveragePotentials(ROI, SIGNAL, kernel="numpy", link_term="off").pair_on_demand(
+        np.float32
+    )
 
 
 _RUN = """

@@ -660,6 +660,7 @@ class CoveragePairs:
         Valid actions of valid variables.
     scale, offset, d02 : numpy.float32
         :math:`2\\psi_R = \\text{offset} + \\text{scale} \\log_{10} \\max(d^2, d_0^2)`.
+        Both 0 for a table of the crowding penalty alone (no link term).
     inv_sep : numpy.float32
         :math:`1 / d_{sep}`, 1/metres (any value when ``crowd`` is 0).
     crowd : numpy.float32

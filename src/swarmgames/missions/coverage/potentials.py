@@ -705,8 +705,8 @@ class CoveragePotentials:
 
     def pair_on_demand(self, dtype) -> bool:
         """Whether :meth:`pair_source` gives a source for tables of ``dtype`` (float32 with
-        the compiled kernel)."""
-        return np.dtype(dtype) == np.float32 and self._compiled and self.link_term == "signal"
+        the compiled kernel, with eq. 6's link term or none)."""
+        return np.dtype(dtype) == np.float32 and self._compiled and self.link_term != "at_risk"
 
     def held_sharing_min(self, dtype) -> int | None:
         """The valid entries from which a batch's equal games share one held table of
@@ -722,9 +722,10 @@ class CoveragePotentials:
         each game's pairwise weight :math:`w_b`, shape (B,), or one α_b for all), on
         demand (:class:`~swarmgames.missions.coverage.kernel.CoveragePairs`: computed per
         chunk of games inside the compiled mean-field solve and at the measured profiles,
-        never for the whole batch), for float32 tables with the compiled kernel; None
-        otherwise (the engine then calls :meth:`pair_table`). Equal to it to float32
-        rounding."""
+        never for the whole batch), for float32 tables with the compiled kernel and eq. 6's
+        link term or none (``link_term = "off"``: the source's signal part is 0, its scale
+        and offset 0); None otherwise (the engine then calls :meth:`pair_table`). Equal to
+        it to float32 rounding."""
         if np.dtype(dtype) == np.float64:
             return self._held_pairs(batch, weights)
         if not self.pair_on_demand(dtype):
@@ -736,11 +737,16 @@ class CoveragePotentials:
         valid = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
         d02 = np.float32(sig.reference_distance_m**2)
         crowd = self._crowding_on and self.separation_mode == "pairwise"
+        link = self.link_term == "signal"
         return CoveragePairs(
             points=np.ascontiguousarray(np.asarray(batch.next_states, dtype=float)[..., :3]),
             valid=np.ascontiguousarray(valid),
-            scale=np.float32(-10.0 * sig.exponent),
-            offset=np.float32(2.0 * (sig.t0_dbm - sig.l0_db) + 10.0 * sig.exponent * np.log10(d02)),
+            scale=np.float32(-10.0 * sig.exponent if link else 0.0),
+            offset=np.float32(
+                2.0 * (sig.t0_dbm - sig.l0_db) + 10.0 * sig.exponent * np.log10(d02)
+                if link
+                else 0.0
+            ),
             d02=d02,
             inv_sep=np.float32(1.0 / self.separation_m if crowd else 0.0),
             crowd=np.float32(
