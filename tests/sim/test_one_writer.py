@@ -14,12 +14,23 @@ from swarmgames.sim.journal import verify_run
 
 from .test_signals import ANNOUNCING_CLI
 
+#: The announcing CLI that, after announcing its first stage, holds the run until a line
+#: arrives on its standard input (later stages read the closed input's end at once): the
+#: folder is held while the second writer tries, however slowly that one starts on a
+#: loaded machine.
+HOLDING_CLI = ANNOUNCING_CLI.replace(
+    'print(f"stage {done}", flush=True)',
+    '(print(f"stage {done}", flush=True), sys.stdin.readline())',
+)
+assert HOLDING_CLI != ANNOUNCING_CLI
 
-def _cli(args):
+
+def _cli(args, source=ANNOUNCING_CLI):
     tree = str(Path(swarmgames.__file__).resolve().parents[1])
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([tree, os.environ.get("PYTHONPATH", "")])}
     return subprocess.Popen(
-        [sys.executable, "-c", ANNOUNCING_CLI, *args],
+        [sys.executable, "-c", source, *args],
+        stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -31,7 +42,7 @@ def test_two_writers_into_one_folder_one_refused_and_the_folder_consistent(tmp_p
     out = tmp_path / "run"
     common = ["--out", str(out), "--force", "--no-progress", "--set", "swarm.n_robots=4"]
     common += ["--set", "sim.animation=false", "--set", "sim.duration_s=12"]
-    first = _cli(["run", *common, "--seed", "0"])
+    first = _cli(["run", *common, "--seed", "0"], HOLDING_CLI)
     try:
         line = first.stdout.readline()
         assert line.startswith("stage "), line + first.stderr.read()
@@ -40,7 +51,7 @@ def test_two_writers_into_one_folder_one_refused_and_the_folder_consistent(tmp_p
         assert second.returncode == 2, err
         assert f"being written by another swarmgames process (pid {first.pid} " in err
         assert "Traceback" not in err and len(err.strip().splitlines()) == 1
-        _, err = first.communicate(timeout=300)
+        _, err = first.communicate("go\n", timeout=300)
         assert first.returncode == 0, err
     finally:
         first.kill()
