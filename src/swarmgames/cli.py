@@ -315,7 +315,7 @@ def reproduce(
           intervals) and paired tables, figures against N (docs/results.md)
     coverage-scale  the coverage-large preset at constant density for --sizes
           (default 7,100,1000,10000) x --seeds under the game, the game without
-          its link term (game.alpha_b = 0) and Lloyd, on the sweep machinery,
+          its link term (coverage.link_term = "off") and Lloyd, on the sweep machinery,
           resumable; coverage, components, links lost, hops, stage time and bytes
           per run, aggregate and paired tables, coverage-scale.png (docs/results.md)
     all   fig1 and fig2, into OUT/fig1 and OUT/fig2

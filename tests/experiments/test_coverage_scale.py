@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
@@ -19,9 +20,13 @@ from swarmgames.experiments.coverage_scale import (
     MEASURES,
     VARIANT_OVERRIDES,
     reproduce_coverage_scale,
+    run_connectivity,
     run_measures,
 )
 from swarmgames.experiments.sweep import executors
+from swarmgames.missions.geometry import relative_neighbours
+from swarmgames.network.links import link_graph
+from swarmgames.network.propagation import PropagationModel
 
 #: Three stages after a one-second warm-up: the study's mechanics on runs of a second.
 TINY = ("sim.duration_s=3.0", "sim.warmup_s=1.0")
@@ -80,6 +85,47 @@ def test_links_lost_are_the_take_off_links_that_the_end_positions_no_longer_hold
     _fake_run(tmp_path / "swap", first, [(0.0, 0.0), (900.0, 0.0), (300.0, 0.0)])  # 0-2 new
     swap = run_measures(tmp_path / "swap", config)
     assert (swap["links_start"], swap["links_end"], swap["links_lost"]) == (2, 1, 2)
+
+
+def _stages(*stages):
+    return [np.array([(x, y, 30.0) for x, y in pos]) for pos in stages]
+
+
+def test_a_lost_link_of_the_relative_neighbourhood_graph_and_a_split_are_counted():
+    # Links up to 368.84 m (Friis, docs/reference.md section 2). A line 0-1-2: both links are
+    # relative neighbour links; the second stage loses 1-2 and splits the line in two.
+    model = PropagationModel()
+    line = run_connectivity(
+        _stages([(0, 0), (300, 0), (600, 0)], [(0, 0), (300, 0), (700, 0)]), model
+    )
+    assert (line["links_lost"], line["spanning_links_lost"], line["splits"]) == (1, 1, 1)
+    # A triangle whose long side 0-1 has the witness 2 (closer to both ends): losing 0-1
+    # keeps the triangle whole, and the link was not one of the graph's.
+    tri = run_connectivity(
+        _stages([(0, 0), (300, 0), (150, 100)], [(0, 0), (380, 0), (150, 100)]), model
+    )
+    assert (tri["links_lost"], tri["spanning_links_lost"], tri["splits"]) == (1, 0, 0)
+    # Two groups joining, then parting: one split, counted at the stage where it happens;
+    # the links lost and formed between stages add up, the take-off's links are all kept.
+    apart, joined = [(0, 0), (300, 0), (1000, 0)], [(0, 0), (300, 0), (600, 0)]
+    meet = run_connectivity(_stages(apart, joined, apart, joined), model)
+    assert (meet["links_lost"], meet["spanning_links_lost"], meet["splits"]) == (0, 1, 1)
+
+
+def test_relative_neighbours_match_the_definition_by_brute_force():
+    # G. T. Toussaint, Pattern Recognition 12(4), 1980: (i, j) is an edge when no third point
+    # is closer to both; here over the links of the radio range, every robot a witness.
+    rng = np.random.default_rng(3)
+    for n in (2, 5, 40):
+        pos = np.column_stack([rng.uniform(0, 900, (n, 2)), np.full(n, 30.0)])
+        g = link_graph(pos)
+        got = relative_neighbours(pos, g.i, g.j, g.indptr, g.indices)
+        d = np.linalg.norm(pos[:, None] - pos[None], axis=2)
+        want = [
+            not any(max(d[i, m], d[j, m]) < d[i, j] for m in range(n) if m not in (i, j))
+            for i, j in zip(g.i, g.j, strict=True)
+        ]
+        assert got.tolist() == want
 
 
 @pytest.fixture(scope="module")

@@ -33,10 +33,21 @@ by :math:`|E_0|`, comparable across sizes. ``components_start``, ``components_en
 ``summary.json``: connected components and longest shortest path of the 1-hop links of the
 routing tables, :func:`swarmgames.sim.loop.swarm_graph_stats`).
 
+Between the first and the last stage a swarm can come apart and join again, which neither
+end shows. ``spanning_links_lost`` sums, over consecutive stages t, t + 1, the links of the
+relative neighbourhood graph [2]_ of stage t's links (those no third robot is closer to both
+ends of, :func:`swarmgames.missions.geometry.relative_neighbours`) that stage t + 1 no
+longer holds: that graph holds a minimum spanning tree of each component, so these are the
+losses that put connectivity at stake, where most other links may go at no cost to it.
+``splits`` sums, over the same steps, how many more components of stage t + 1 the robots of
+each component of stage t fall into: the times a connected group actually came apart.
+
 References
 ----------
 .. [1] M. Fernando et al., "Graphical Games for UAV Swarm Control Under Time-Varying
    Communication Networks", ICRA 2022 workshop (arXiv 2205.02203), eqs. 1, 5, 6.
+.. [2] G. T. Toussaint, "The relative neighbourhood graph of a finite planar set", Pattern
+   Recognition 12(4), 1980.
 """
 
 from __future__ import annotations
@@ -64,6 +75,7 @@ __all__ = [
     "VARIANT_OVERRIDES",
     "CoverageScaleResult",
     "reproduce_coverage_scale",
+    "run_connectivity",
     "run_measures",
 ]
 
@@ -87,6 +99,8 @@ MEASURES = (
     "links_end",
     "links_lost",
     "links_lost_share",
+    "spanning_links_lost",
+    "splits",
     "median_stage_s",
     "bytes_per_robot_stage",
     "olsr_bytes_per_robot_stage",
@@ -124,13 +138,64 @@ def _zipped_factors(base: ScenarioConfig, variants: Sequence[str]) -> dict[str, 
     return factors
 
 
-def _link_keys(positions: np.ndarray, model) -> np.ndarray:
-    """The radio links of ``positions`` as sorted keys ``i * N + j``, ``i < j``."""
+def _link_keys(graph) -> np.ndarray:
+    """The links of a :class:`~swarmgames.network.links.LinkGraph` as sorted keys
+    ``i * N + j``, ``i < j``."""
+    return np.sort(graph.i.astype(np.int64) * np.int64(graph.n_robots) + graph.j)
+
+
+def _labels(graph) -> np.ndarray:
+    """The connected component of every robot of a link graph."""
+    from scipy.sparse import csr_array
+    from scipy.sparse.csgraph import connected_components
+
+    n = graph.n_robots
+    adjacency = csr_array((np.ones(graph.indices.size), graph.indices, graph.indptr), (n, n))
+    return connected_components(adjacency, directed=False)[1]
+
+
+def run_connectivity(stages: Sequence[np.ndarray], model) -> dict[str, float]:
+    """What the run did to its links from one stage to the next (module notes).
+
+    Parameters
+    ----------
+    stages : sequence of ndarray, shape (N, 3)
+        The robots' positions at every stage, in order, metres.
+    model : PropagationModel
+        The radio (a deterministic one: the links are the pairs within its range).
+
+    Returns
+    -------
+    dict
+        ``links_start``, ``links_end``, ``links_lost`` (the take-off links the end no longer
+        holds), ``spanning_links_lost`` (the links of each stage's relative neighbourhood
+        graph that the next stage no longer holds, summed over the stages) and ``splits``
+        (the connected groups of a stage that the next stage holds in more than one
+        component, counted once for every extra component, summed over the stages).
+    """
+    from swarmgames.missions.geometry import relative_neighbours
     from swarmgames.network.links import link_graph
 
-    graph = link_graph(positions, model)
-    n = np.int64(len(positions))
-    return np.sort(graph.i.astype(np.int64) * n + graph.j)
+    graphs = [link_graph(pos, model) for pos in stages]
+    keys = [_link_keys(g) for g in graphs]
+    labels = [_labels(g) for g in graphs]
+    spanning_lost = splits = 0
+    for t in range(len(stages) - 1):
+        g = graphs[t]
+        kept = relative_neighbours(stages[t], g.i, g.j, g.indptr, g.indices)
+        span = np.sort(g.i[kept].astype(np.int64) * np.int64(g.n_robots) + g.j[kept])
+        spanning_lost += int(np.setdiff1d(span, keys[t + 1], assume_unique=True).size)
+        before, after = labels[t], labels[t + 1]
+        groups = np.unique(before.astype(np.int64) * (after.max() + 1) + after).size
+        splits += groups - np.unique(before).size
+    start, end = keys[0], keys[-1]
+    return {
+        "links_start": float(start.size),
+        "links_end": float(end.size),
+        "links_lost": float(np.setdiff1d(start, end, assume_unique=True).size),
+        "spanning_links_lost": float(spanning_lost),
+        "splits": float(splits),
+    }
 
 
 def run_measures(folder: str | Path, config: ScenarioConfig) -> dict[str, float]:
@@ -150,8 +215,9 @@ def run_measures(folder: str | Path, config: ScenarioConfig) -> dict[str, float]
         :data:`MEASURES`: coverage at the start and end (dBm) and the gain (dB), components
         at the first stage, components and longest route (hops) at the last stage, radio
         links at take-off and at the end, links lost and their share of the take-off links
-        (NaN without take-off links), the median wall time of a stage (s), and game and
-        OLSR payload bytes sent and relayed per robot and stage.
+        (NaN without take-off links), relative neighbour links lost and component splits
+        from stage to stage (:func:`run_connectivity`), the median wall time of a stage (s),
+        and game and OLSR payload bytes sent and relayed per robot and stage.
 
     Raises
     ------
@@ -170,13 +236,10 @@ def run_measures(folder: str | Path, config: ScenarioConfig) -> dict[str, float]
     trajectory = read_table(folder, "trajectory").sort_values(["t", "robot"], kind="stable")
     radio = config.network.radio.model_dump() | {"shadowing_sigma_db": 0.0, "nakagami_m": None}
     model = PropagationModel(RadioParameters(**radio))
-    times = trajectory["t"].unique()
-    first, last = (
-        trajectory.loc[trajectory["t"] == t, ["x", "y", "z"]].to_numpy(dtype=float)
-        for t in (times[0], times[-1])
-    )
-    start, end = _link_keys(first, model), _link_keys(last, model)
-    lost = int(np.setdiff1d(start, end, assume_unique=True).size)
+    xyz = trajectory[["x", "y", "z"]].to_numpy(dtype=float)
+    bounds = np.flatnonzero(np.diff(trajectory["t"].to_numpy())) + 1
+    links = run_connectivity(np.split(xyz, bounds), model)
+    lost = links["links_lost"]
     return {
         "coverage_start_dbm": float(summary["coverage_start_dbm"]),
         "coverage_end_dbm": float(summary["coverage_end_dbm"]),
@@ -184,10 +247,12 @@ def run_measures(folder: str | Path, config: ScenarioConfig) -> dict[str, float]
         "components_start": float(swarm["components"].iloc[0]),
         "components_end": float(summary["components_end"]),
         "max_hops_end": float(summary["max_hops_end"]),
-        "links_start": float(start.size),
-        "links_end": float(end.size),
-        "links_lost": float(lost),
-        "links_lost_share": lost / start.size if start.size else float("nan"),
+        "links_start": links["links_start"],
+        "links_end": links["links_end"],
+        "links_lost": lost,
+        "links_lost_share": lost / links["links_start"] if links["links_start"] else float("nan"),
+        "spanning_links_lost": links["spanning_links_lost"],
+        "splits": links["splits"],
         "median_stage_s": float(summary["median_stage_ms"]) / 1e3,
         "bytes_per_robot_stage": float(summary["bytes_per_robot_stage"]),
         "olsr_bytes_per_robot_stage": float(summary["olsr_bytes_per_robot_stage"]),

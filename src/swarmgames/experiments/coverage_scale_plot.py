@@ -1,7 +1,8 @@
 """The figure of the coverage-at-scale study (:mod:`swarmgames.experiments.coverage_scale`):
-final coverage, components at the end and the share of take-off links lost against the swarm
-size, one series per variant, the mean over the seeds with its 95 % interval and every run as
-a dot, and the take-off value (the same for every variant of a seed) as a dashed line."""
+final coverage, components at the end, the share of take-off links lost and the component
+splits during the run against the swarm size, one series per variant, the mean over the seeds
+with its 95 % interval and every run as a dot, and the take-off value (the same for every
+variant of a seed) as a dashed line."""
 
 from __future__ import annotations
 
@@ -12,11 +13,13 @@ from matplotlib.figure import Figure
 __all__ = ["PANELS", "plot_coverage_scale"]
 
 #: ``(measure, axis label, the measure at take-off or None, counts)`` of each panel, left to
-#: right; a panel of counts (>= 1) gets a log axis when they span a factor of 20 or more.
+#: right. A panel of counts gets a log axis when they span a factor of 20 or more (linear up
+#: to 1 where some are 0), and its intervals stop at 0.
 PANELS = (
     ("coverage_end_dbm", "final coverage (dBm)", "coverage_start_dbm", False),
     ("components_end", "components at the end", "components_start", True),
     ("links_lost_share", "take-off links lost (share)", None, False),
+    ("splits", "component splits in the run", None, True),
 )
 #: Colour and marker of each variant.
 STYLES = {
@@ -48,7 +51,7 @@ def plot_coverage_scale(aggregate: pd.DataFrame, runs: pd.DataFrame) -> Figure:
     log = sizes[0] > 0 and sizes[-1] >= 20 * sizes[0]
     variants = [v for v in STYLES if v in set(runs["variant"])]
     done = runs[runs["status"] == "complete"]
-    fig = Figure(figsize=(7.2, 2.9), layout="constrained")
+    fig = Figure(figsize=(9.6, 2.9), layout="constrained")
     axes = fig.subplots(1, len(PANELS))
     for ax, (metric, label, start, counts) in zip(axes, PANELS, strict=True):
         if start is not None:
@@ -66,10 +69,9 @@ def plot_coverage_scale(aggregate: pd.DataFrame, runs: pd.DataFrame) -> Figure:
             rows = rows.sort_values("n_robots")
             xs = _shifted(rows["n_robots"].to_numpy(dtype=float), shift, log)
             mean = rows["mean"].to_numpy(dtype=float)
-            err = np.nan_to_num(
-                np.vstack([mean - rows["ci_low"].to_numpy(float), rows["ci_high"] - mean]),
-                nan=0.0,
-            )
+            low = rows["ci_low"].to_numpy(float)
+            low = np.maximum(low, 0.0) if counts else low
+            err = np.nan_to_num(np.vstack([mean - low, rows["ci_high"] - mean]), nan=0.0)
             ax.errorbar(
                 xs,
                 mean,
@@ -96,8 +98,13 @@ def plot_coverage_scale(aggregate: pd.DataFrame, runs: pd.DataFrame) -> Figure:
             ax.minorticks_off()
         ax.set_xticks(sizes, [f"{n:,}" for n in sizes])
         values = done[metric].dropna()
-        if counts and len(values) and values.min() >= 1 and values.max() >= 20 * values.min():
-            ax.set_yscale("log")
+        positive = values[values > 0]
+        if counts and len(positive) and values.max() >= 20 * max(1.0, positive.min()):
+            if values.min() >= 1:
+                ax.set_yscale("log")
+            else:
+                ax.set_yscale("symlog", linthresh=1.0, linscale=0.5)
+                ax.set_ylim(bottom=0.0)
             ax.yaxis.set_major_formatter("{x:g}")
         ax.set_xlabel("UAVs N")
         ax.set_ylabel(label)

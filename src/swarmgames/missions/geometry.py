@@ -23,6 +23,7 @@ __all__ = [
     "link_components",
     "link_pairs",
     "pair_distances",
+    "relative_neighbours",
 ]
 
 
@@ -64,6 +65,62 @@ def link_components(positions, range_m: float) -> int:
     e = link_pairs(pos, range_m)
     graph = coo_array((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
     return int(connected_components(graph, directed=False)[0])
+
+
+def relative_neighbours(positions, i, j, indptr, indices) -> np.ndarray:
+    """Which links of a link graph belong to its relative neighbourhood graph.
+
+    A link (i, j) is a relative neighbour link when no third robot m is closer to both ends
+    than they are to each other, :math:`\\max(d_{im}, d_{jm}) < d_{ij}` for no m [1]_. Such a
+    witness m is within :math:`d_{ij}` of i, so when the links are the pairs within a range
+    it is a neighbour of i: only i's neighbours are searched. The relative neighbourhood
+    graph of the pairs within a range contains a Euclidean minimum spanning tree of each of
+    the link graph's components, so it has the link graph's components: keeping its links
+    keeps every component whole.
+
+    Parameters
+    ----------
+    positions : array_like, shape (N, >= 2)
+        Robot positions (x, y, z used, when present), metres.
+    i, j : ndarray of int, shape (E,)
+        The links' endpoints.
+    indptr, indices : ndarray of int
+        The link graph's CSR adjacency (both directions): the neighbours of k are
+        ``indices[indptr[k]:indptr[k + 1]]``.
+
+    Returns
+    -------
+    ndarray of bool, shape (E,)
+
+    References
+    ----------
+    .. [1] G. T. Toussaint, "The relative neighbourhood graph of a finite planar set",
+       Pattern Recognition 12(4), 1980.
+
+    Examples
+    --------
+    >>> pos = [[0.0, 0.0], [100.0, 0.0], [50.0, 10.0]]
+    >>> i, j = np.array([0, 0, 1]), np.array([1, 2, 2])
+    >>> relative_neighbours(pos, i, j, np.array([0, 2, 4, 6]), np.array([1, 2, 0, 2, 0, 1]))
+    array([False,  True,  True])
+    """
+    pos = _xyz(positions)
+    i, j = np.asarray(i, dtype=np.int64), np.asarray(j, dtype=np.int64)
+    indptr, indices = np.asarray(indptr, dtype=np.int64), np.asarray(indices, dtype=np.int64)
+    if i.size == 0:
+        return np.zeros(0, dtype=bool)
+    degree = np.diff(indptr)
+    # The neighbours of each link's first end, padded to the largest degree with the end
+    # itself (never a witness: its distance to i is 0 and to j is d_ij, not below it).
+    slot = np.arange(int(degree.max()))
+    take = slot[None, :] < degree[i][:, None]
+    cand = np.where(
+        take, indices[np.minimum(indptr[i][:, None] + slot, indices.size - 1)], i[:, None]
+    )
+    d_ij = np.linalg.norm(pos[i] - pos[j], axis=1)
+    d_im = np.linalg.norm(pos[cand] - pos[i][:, None], axis=2)
+    d_jm = np.linalg.norm(pos[cand] - pos[j][:, None], axis=2)
+    return ~np.any(np.maximum(d_im, d_jm) < d_ij[:, None], axis=1)
 
 
 def close_pairs(positions, distance_m: float) -> int:
