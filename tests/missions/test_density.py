@@ -37,12 +37,18 @@ def test_preset_validates_at_the_benchmark_density():
     assert cfg.mission.signal_floor_dbm == -100.0 and cfg.game.dtype == "float32"
     assert _area_per_robot(cfg) == pytest.approx((70_000.0, 70_000.0), rel=1e-12)
     assert cfg.swarm.start_center_m == cfg.mission.roi_mean_m == (0.0, 0.0)
-    # The benchmark's scenario of 1 000 UAVs, but for the run's length, name and threads, and
-    # the move cost, link weight and virtual means of tests/missions/test_share_weights.py.
+    # The benchmark's scenario of 1 000 UAVs, but for the run's length, name and threads, the
+    # move cost, link weight and virtual means of tests/missions/test_share_weights.py, and
+    # link keeping (docs/coverage.md, "What the presets use").
     bench = scaled_config(1000, workers=2)
     assert (
         cfg.mission.model_copy(
-            update={"move_cost_db": 0.01, "move_cost_share_db": None, "alpha_b_share": None}
+            update={
+                "move_cost_db": 0.01,
+                "move_cost_share_db": None,
+                "alpha_b_share": None,
+                "link_term": "signal",
+            }
         )
         == bench.mission
     )

@@ -3,7 +3,8 @@
 The coverage mission at constant density (the ``coverage-large`` preset, which derives its
 ROI and take-off disc from ``swarm.n_robots``) for every swarm size, seed and controller:
 
-* ``game``: the preset as it is (local graphical games, link term on);
+* ``game``: the preset as it is (local graphical games with the preset's link term, link
+  keeping);
 * ``game-nolink``: the same games without the communication-aware link term
   (``coverage.link_term = "off"``): the pairwise term keeps the crowding penalty alone, so
   the variant differs from ``game`` by the link term and nothing else;
@@ -77,6 +78,7 @@ __all__ = [
     "reproduce_coverage_scale",
     "run_connectivity",
     "run_measures",
+    "trajectory_stages",
 ]
 
 #: The built-in scenario the study starts from.
@@ -152,6 +154,14 @@ def _labels(graph) -> np.ndarray:
     n = graph.n_robots
     adjacency = csr_array((np.ones(graph.indices.size), graph.indices, graph.indptr), (n, n))
     return connected_components(adjacency, directed=False)[1]
+
+
+def trajectory_stages(trajectory: pd.DataFrame) -> list[np.ndarray]:
+    """The positions ``(N, 3)`` of every stage of a ``trajectory`` table, in time order (the
+    robots in id order)."""
+    ordered = trajectory.sort_values(["t", "robot"], kind="stable")
+    bounds = np.flatnonzero(np.diff(ordered["t"].to_numpy())) + 1
+    return np.split(ordered[["x", "y", "z"]].to_numpy(dtype=float), bounds)
 
 
 def run_connectivity(stages: Sequence[np.ndarray], model) -> dict[str, float]:
@@ -233,12 +243,9 @@ def run_measures(folder: str | Path, config: ScenarioConfig) -> dict[str, float]
     folder = Path(folder)
     summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
     swarm = read_table(folder, "swarm")
-    trajectory = read_table(folder, "trajectory").sort_values(["t", "robot"], kind="stable")
     radio = config.network.radio.model_dump() | {"shadowing_sigma_db": 0.0, "nakagami_m": None}
     model = PropagationModel(RadioParameters(**radio))
-    xyz = trajectory[["x", "y", "z"]].to_numpy(dtype=float)
-    bounds = np.flatnonzero(np.diff(trajectory["t"].to_numpy())) + 1
-    links = run_connectivity(np.split(xyz, bounds), model)
+    links = run_connectivity(trajectory_stages(read_table(folder, "trajectory")), model)
     lost = links["links_lost"]
     return {
         "coverage_start_dbm": float(summary["coverage_start_dbm"]),

@@ -166,15 +166,18 @@ class CoverageConfig(Section):
         ),
     )
 
-    link_term: Literal["signal", "at_risk", "off"] = Field(
+    link_term: Literal["signal", "at_risk", "keep", "off"] = Field(
         "signal",
         description=(
             "The pairwise term: 'signal' = eq. 6, the link quality psi_R between every pair's "
             "next positions (a pull towards every neighbour); 'at_risk' = the received-power "
             "shortfall below network.radio.rx_threshold_dbm + link_margin_db of the pairs "
             "linked now that a move adds, weighted by link_cost_db (zero on links with margin "
-            "to spare); 'off' = no link term (the pairwise term is the crowding penalty "
-            "alone); no unit."
+            "to spare); 'keep' = each robot keeps within the disc around the midpoint of each "
+            "of its relative neighbour links (linked pairs that no third known robot is "
+            "closer to) that keeps the link whatever the neighbour does, a hard constraint in "
+            "the unary (the pairwise term is the crowding penalty alone); 'off' = no link term "
+            "(the pairwise term is the crowding penalty alone); no unit."
         ),
     )
     link_cost_db: float = Field(

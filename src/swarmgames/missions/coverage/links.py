@@ -1,4 +1,5 @@
-"""The link term at risk: what a joint move takes from the radio links near their loss.
+"""Link terms that guard the radio links: what a joint move takes from the links near their
+loss (the term at risk), and the discs that keep the relative neighbour links (link keeping).
 
 Eq. 6 rewards every pair of a neighbourhood for the link quality between its next positions,
 :math:`\\psi_R(\\lVert S_k(x_k) - S_l(x_l) \\rVert)`: a pull towards every neighbour, summed over
@@ -40,7 +41,7 @@ from swarmgames.missions.geometry import pair_distances
 from swarmgames.network.parameters import RadioParameters
 from swarmgames.network.propagation import PropagationModel, max_range
 
-__all__ = ["LINK_CHUNK_ELEMS", "LinkRisk"]
+__all__ = ["LINK_CHUNK_ELEMS", "LinkKeeping", "LinkRisk"]
 
 #: Most shortfall entries (pairs × A²) computed at once.
 LINK_CHUNK_ELEMS = 2_000_000
@@ -127,3 +128,107 @@ class LinkRisk:
             worse = self.shortfall_db(d)
             np.subtract(worse, now, out=worse)
             yield cb, ck, cl, np.maximum(worse, 0.0, out=worse)
+
+
+@dataclass(frozen=True)
+class LinkKeeping:
+    """How far each move takes a robot outside the discs that keep its relative neighbour
+    links, whatever the neighbours do.
+
+    For every pair (k, l) of a game's robots that is linked now (distance :math:`d_{kl}` at
+    most the radio's range R) and is a relative neighbour link of the robots the game knows
+    (:func:`~swarmgames.missions.geometry.relative_neighbours`: no third robot is closer to
+    both), k keeps within the disc of radius :math:`\\max(D, d_{kl}) / 2` around the pair's
+    midpoint:
+
+    .. math::
+
+        v(k, x_k) = \\sum_l \\max\\Bigl(0,\\; \\bigl\\lVert S_k(x_k) - \\tfrac{S_k + S_l}{2}
+            \\bigr\\rVert - \\tfrac{\\max(D, d_{kl})}{2}\\Bigr),
+        \\qquad D = R - 2 s
+
+    with :math:`s` the longest move of the batch. If k and l both keep to their discs, their
+    distance after the move is at most :math:`\\max(D, d_{kl})` [1]_, so the link holds
+    whatever the other robot chooses, with room for one stage of a neighbour's stale
+    position on each side (:math:`2 s`). Staying put is always inside the disc. The
+    relative neighbourhood graph holds a minimum spanning tree of every component of the
+    links, so keeping its links keeps every component whole while all other links may go;
+    robots k and l find the same witnesses (a witness is a neighbour of both), so they agree
+    on which links to keep when they know the same positions.
+
+    Parameters
+    ----------
+    radio : RadioParameters
+        The network's radio (``network.radio``): its mean received power and reception
+        threshold give the range R.
+
+    References
+    ----------
+    .. [1] H. Ando, Y. Oasa, I. Suzuki and M. Yamashita, "Distributed memoryless point
+       convergence algorithm for mobile robots with limited visibility", IEEE Transactions
+       on Robotics and Automation 15(5), 1999 (the midpoint disc of radius V / 2).
+    """
+
+    radio: RadioParameters
+
+    def __post_init__(self) -> None:
+        # The mean power alone decides, without shadowing or fading.
+        object.__setattr__(
+            self, "radio", replace(self.radio, shadowing_sigma_db=0.0, nakagami_m=None)
+        )
+
+    @property
+    def range_m(self) -> float:
+        """R: the distance up to which a pair is linked (mean power at the threshold), metres."""
+        return max_range(self.radio)
+
+    def outside_m(
+        self, batch, *, owner_only: bool = False, max_elems: int = LINK_CHUNK_ELEMS
+    ) -> np.ndarray:
+        """:math:`v(k, x_k)` for every game, variable and action, (B, K, A) metres (or the
+        owners' rows, (B, A), with ``owner_only``); 0 for virtual means, padded variables and
+        invalid actions. The witnesses are searched for in chunks of pairs of at most
+        ``max_elems`` distances; the values do not depend on the chunking.
+
+        Only pairs farther apart than :math:`D - 2 s` can leave a disc (a move reaches at
+        most :math:`d_{kl} / 2 + s` from the midpoint), so only theirs are computed.
+        """
+        mask = np.asarray(batch.mask, dtype=bool)
+        real = mask & ~np.asarray(batch.is_virtual, dtype=bool)
+        amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
+        pos = np.asarray(batch.states, dtype=float)[..., :3]
+        nxt = np.asarray(batch.next_states, dtype=float)[..., :3]
+        B, K, A = amask.shape
+        out = np.zeros((B, 1 if owner_only else K, A))
+        if B == 0 or K < 2:
+            return out[:, 0] if owner_only else out
+        disp = np.linalg.norm(nxt - pos[:, :, None, :], axis=-1)
+        s_max = float(disp[amask].max(initial=0.0))
+        keep = self.range_m - 2.0 * s_max
+        pairs = real[:, :, None] & real[:, None, :] & ~np.eye(K, dtype=bool)
+        if owner_only:
+            pairs[:, 1:] = False
+        gb, gk, gl = np.nonzero(pairs)
+        gap = np.linalg.norm(pos[gb, gk] - pos[gb, gl], axis=-1)
+        near = (gap <= self.range_m) & (gap > keep - 2.0 * s_max - 1e-9)
+        gb, gk, gl, gap = gb[near], gk[near], gl[near], gap[near]
+        # Relative neighbours within the game: no third known robot closer to both, in chunks
+        # of pairs of at most max_elems distances to the game's others.
+        alone = np.zeros(gb.size, dtype=bool)
+        step = max(1, int(max_elems) // K)
+        for lo in range(0, gb.size, step):
+            cb, ck, cl = gb[lo : lo + step], gk[lo : lo + step], gl[lo : lo + step]
+            d_k = np.linalg.norm(pos[cb] - pos[cb, ck][:, None], axis=2)  # (P, K)
+            d_l = np.linalg.norm(pos[cb] - pos[cb, cl][:, None], axis=2)
+            witness = real[cb] & (np.maximum(d_k, d_l) < gap[lo : lo + step, None])
+            alone[lo : lo + step] = ~np.any(witness, axis=1)
+        gb, gk, gl, gap = gb[alone], gk[alone], gl[alone], gap[alone]
+        mid = 0.5 * (pos[gb, gk] + pos[gb, gl])  # (P, 3)
+        radius = 0.5 * np.maximum(keep, gap)
+        over = np.maximum(
+            0.0, np.linalg.norm(nxt[gb, gk] - mid[:, None], axis=-1) - radius[:, None]
+        )
+        rows = np.zeros_like(gk) if owner_only else gk
+        np.add.at(out, (gb, rows), over)
+        out[~(amask[:, :1] if owner_only else amask)] = 0.0
+        return out[:, 0] if owner_only else out

@@ -24,7 +24,7 @@ import numpy as np
 from swarmgames.errors import ConfigError
 from swarmgames.game.inertia import Inertia
 from swarmgames.missions.coverage.config import CoverageConfig
-from swarmgames.missions.coverage.links import LinkRisk
+from swarmgames.missions.coverage.links import LinkKeeping, LinkRisk
 from swarmgames.missions.coverage.lloyd import lloyd_actions
 from swarmgames.missions.coverage.potentials import CoveragePotentials
 from swarmgames.missions.coverage.roi import GaussianROI
@@ -135,6 +135,9 @@ def build(config) -> CoverageMission:
                 RadioParameters(**config.network.radio.model_dump()), cov.link_margin_db
             )
             if cov.link_term == "at_risk"
+            else None,
+            link_keep=LinkKeeping(RadioParameters(**config.network.radio.model_dump()))
+            if cov.link_term == "keep"
             else None,
             link_cost_db=cov.link_cost_db,
         )

@@ -79,7 +79,7 @@ import numpy as np
 from swarmgames.game.capabilities import PotentialCapabilities
 from swarmgames.game.equal import CarriedGame
 from swarmgames.game.rows import row_ids
-from swarmgames.missions.coverage.links import LINK_CHUNK_ELEMS, LinkRisk
+from swarmgames.missions.coverage.links import LINK_CHUNK_ELEMS, LinkKeeping, LinkRisk
 from swarmgames.missions.coverage.roi import GaussianROI
 from swarmgames.missions.coverage.signal import SignalModel
 from swarmgames.missions.coverage.window import (
@@ -96,7 +96,11 @@ __all__ = ["KERNELS", "LINK_TERMS", "CoveragePotentials"]
 KERNELS = ("auto", "compiled", "numpy")
 
 #: Values of ``CoveragePotentials(link_term=...)`` (``coverage.link_term``).
-LINK_TERMS = ("signal", "at_risk", "off")
+LINK_TERMS = ("signal", "at_risk", "keep", "off")
+#: What one metre outside a link-keeping disc costs, dB of expected ROI signal (times the
+#: ROI's mass in the unary): far above the gain of any move, so that a robot leaves a disc
+#: only where every action does.
+KEEP_COST_DB_PER_M = 1.0
 
 #: The integral's float32 temporaries per chunk entry and the pair table's float64
 #: temporaries per entry of its blocks (a quarter of the chunk), for :meth:`stage_bytes`.
@@ -201,13 +205,18 @@ class CoveragePotentials:
         kernel keeps across batches and stages (:class:`~swarmgames.game.kept.KeptRows`, in
         the :class:`~swarmgames.game.kept.RowTables` the stage hands over): a state is
         computed once while it stays there. The results do not depend on it.
-    link_term : {"signal", "at_risk", "off"}, default "signal"
-        The pairwise link term: eq. 6's link quality :math:`\\psi_R` between next
-        positions; what a move takes from the links at risk
+    link_term : {"signal", "at_risk", "keep", "off"}, default "signal"
+        The link term: eq. 6's link quality :math:`\\psi_R` between next positions
+        (pairwise); what a move takes from the links at risk
         (:mod:`~swarmgames.missions.coverage.links`, ``link_risk``, weighted by
-        ``link_cost_db``); or none (the pairwise term is then the crowding penalty alone).
+        ``link_cost_db``; pairwise); the discs that keep the relative neighbour links
+        (``link_keep``, in the unary: :data:`KEEP_COST_DB_PER_M` times the ROI's mass per
+        metre outside); or none. Without eq. 6 the pairwise term is the crowding penalty
+        (and the term at risk).
     link_risk : LinkRisk or None, default None
         The radio and margin of the link term at risk (``link_term = "at_risk"``).
+    link_keep : LinkKeeping or None, default None
+        The radio of link keeping (``link_term = "keep"``).
     link_cost_db : float, default 0.0
         :math:`c_{link}`: what one dB of shortfall on one link costs, in the unary's units
         (dB times the ROI's mass) (``link_risk`` set; > 0).
@@ -247,6 +256,7 @@ class CoveragePotentials:
     signal_table_elems: int = 96_000_000
     link_term: str = "signal"
     link_risk: LinkRisk | None = None
+    link_keep: LinkKeeping | None = None
     link_cost_db: float = 0.0
     last_integrate_s: float = field(default=0.0, init=False)
     #: Every optional form but the neighbourhood term.
@@ -273,6 +283,8 @@ class CoveragePotentials:
             )
         if (self.link_term == "at_risk") != (self.link_risk is not None):
             raise ValueError("link_risk must be given with link_term = 'at_risk', and only then")
+        if (self.link_term == "keep") != (self.link_keep is not None):
+            raise ValueError("link_keep must be given with link_term = 'keep', and only then")
         if self.link_risk is not None:
             if not (np.isfinite(self.link_cost_db) and self.link_cost_db > 0):
                 raise ValueError(
@@ -349,9 +361,16 @@ class CoveragePotentials:
             out -= self._crowding(mask, states, nxt)
         else:
             out = self._shared_integral(batch, mask, amask, states, nxt)
+        if self.link_keep is not None:
+            out -= self._keep_cost * self.link_keep.outside_m(batch)
         out[~amask] = 0.0
         self.last_integrate_s = time.perf_counter() - t0
         return out
+
+    @property
+    def _keep_cost(self) -> float:
+        """What one metre outside a link-keeping disc costs in the unary."""
+        return KEEP_COST_DB_PER_M * self.roi.mass
 
     def _integral(self, batch, mask, amask, states, nxt, games=None, rows=None) -> np.ndarray:
         """Eq. 5's integral of every game, variable and action, (B, K, A): over each
@@ -418,11 +437,12 @@ class CoveragePotentials:
             out = np.zeros(amask.shape)
             self._full_grid(batch.stage, out, mask, amask, states, nxt, owner_only=True)
             out = out[:, 0]
-            out[~amask[:, 0]] = 0.0
-            return out
-        owner = np.zeros(mask.shape, dtype=bool)
-        owner[:, 0] = True
-        out = self._shared_integral(batch, mask, amask, states, nxt, rows=owner)[:, 0]
+        else:
+            owner = np.zeros(mask.shape, dtype=bool)
+            owner[:, 0] = True
+            out = self._shared_integral(batch, mask, amask, states, nxt, rows=owner)[:, 0]
+        if self.link_keep is not None:
+            out -= self._keep_cost * self.link_keep.outside_m(batch, owner_only=True)
         out[~amask[:, 0]] = 0.0
         return out
 
@@ -621,7 +641,7 @@ class CoveragePotentials:
         ``k == l`` and for padded variables or invalid actions. With the pairwise crowding
         penalty on, :math:`\\phi_{sep} / \\alpha_b` is added (module notes). With
         ``link_term`` other than ``"signal"``, the term at risk or none replaces eq. 6's
-        (:mod:`~swarmgames.missions.coverage.links`)."""
+        (:mod:`~swarmgames.missions.coverage.links`; link keeping is in the unary)."""
         mask = np.asarray(batch.mask, dtype=bool)
         amask = np.asarray(batch.action_mask, dtype=bool) & mask[..., None]
         nxt = np.where(amask[..., None], np.asarray(batch.next_states, dtype=float)[..., :3], 0.0)
@@ -701,6 +721,13 @@ class CoveragePotentials:
         if self.link_risk is not None:
             # The computed table (never on demand) and the shortfall blocks' temporaries.
             pair += 8.0 * entries + 8.0 * _PAIR_COPIES * min(entries, float(LINK_CHUNK_ELEMS))
+        if self.link_keep is not None:
+            # Link keeping: the pairs of every game (a flag, their indices and distances) and
+            # the witness search's chunk of distances (three float64 copies).
+            keep = float(games) * k * k * (1.0 + 4.0 * 8.0)
+            keep += 3.0 * 8.0 * min(float(games) * k * k * k, float(LINK_CHUNK_ELEMS))
+            unary += keep
+            owner += keep
         return unary, owner, pair
 
     def pair_on_demand(self, dtype) -> bool:
@@ -723,9 +750,9 @@ class CoveragePotentials:
         demand (:class:`~swarmgames.missions.coverage.kernel.CoveragePairs`: computed per
         chunk of games inside the compiled mean-field solve and at the measured profiles,
         never for the whole batch), for float32 tables with the compiled kernel and eq. 6's
-        link term or none (``link_term = "off"``: the source's signal part is 0, its scale
-        and offset 0); None otherwise (the engine then calls :meth:`pair_table`). Equal to
-        it to float32 rounding."""
+        link term or none (``link_term = "off"`` or ``"keep"``: the source's signal part is
+        0, its scale and offset 0); None otherwise (the engine then calls
+        :meth:`pair_table`). Equal to it to float32 rounding."""
         if np.dtype(dtype) == np.float64:
             return self._held_pairs(batch, weights)
         if not self.pair_on_demand(dtype):
