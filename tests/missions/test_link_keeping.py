@@ -65,6 +65,20 @@ def test_only_relative_neighbour_links_near_the_range_are_kept():
     assert np.any(keep.outside_m(_games(mission, [(0, 0), (350, 0), (2000, 0)])))
 
 
+@pytest.mark.parametrize(
+    "xy",
+    [
+        [(0.0, 0.0)],  # one robot
+        [(0.0, 0.0), (0.0, 0.0)],  # co-located: the disc has radius D / 2 around them
+        [(0.0, 0.0), (2000.0, 0.0)],  # isolated: no link to keep
+    ],
+)
+def test_degenerate_swarms_keep_nothing(xy):
+    mission = _mission(n=len(xy))
+    out = mission.potentials.link_keep.outside_m(_games(mission, xy))
+    assert out.shape[:2] == (len(xy), len(xy)) and not np.any(out)
+
+
 def test_the_values_do_not_depend_on_the_chunking():
     mission = _mission(n=30)
     rng = np.random.default_rng(5)
