@@ -79,7 +79,7 @@ def test_degenerate_swarms_keep_nothing(xy):
     assert out.shape[:2] == (len(xy), len(xy)) and not np.any(out)
 
 
-def test_the_values_do_not_depend_on_the_chunking():
+def test_the_values_do_not_depend_on_the_chunking_or_the_batch():
     mission = _mission(n=30)
     rng = np.random.default_rng(5)
     # A winding chain of links near the range, each a relative neighbour link.

@@ -147,7 +147,7 @@ class LinkKeeping:
             \\bigr\\rVert - \\tfrac{\\max(D, d_{kl})}{2}\\Bigr),
         \\qquad D = R - 2 s
 
-    with :math:`s` the longest move of the batch. If k and l both keep to their discs, their
+    with :math:`s` the longest move in the game. If k and l both keep to their discs, their
     distance after the move is at most :math:`\\max(D, d_{kl})` [1]_, so the link holds
     whatever the other robot chooses, with room for one stage of a neighbour's stale
     position on each side (:math:`2 s`). Staying put is always inside the disc. The
@@ -202,15 +202,16 @@ class LinkKeeping:
         out = np.zeros((B, 1 if owner_only else K, A))
         if B == 0 or K < 2:
             return out[:, 0] if owner_only else out
+        # Each game's longest move (its own: the values do not depend on the batch).
         disp = np.linalg.norm(nxt - pos[:, :, None, :], axis=-1)
-        s_max = float(disp[amask].max(initial=0.0))
+        s_max = np.where(amask, disp, 0.0).max(axis=(1, 2))  # (B,)
         keep = self.range_m - 2.0 * s_max
         pairs = real[:, :, None] & real[:, None, :] & ~np.eye(K, dtype=bool)
         if owner_only:
             pairs[:, 1:] = False
         gb, gk, gl = np.nonzero(pairs)
         gap = np.linalg.norm(pos[gb, gk] - pos[gb, gl], axis=-1)
-        near = (gap <= self.range_m) & (gap > keep - 2.0 * s_max - 1e-9)
+        near = (gap <= self.range_m) & (gap > keep[gb] - 2.0 * s_max[gb] - 1e-9)
         gb, gk, gl, gap = gb[near], gk[near], gl[near], gap[near]
         # Relative neighbours within the game: no third known robot closer to both, in chunks
         # of pairs of at most max_elems distances to the game's others.
@@ -224,7 +225,7 @@ class LinkKeeping:
             alone[lo : lo + step] = ~np.any(witness, axis=1)
         gb, gk, gl, gap = gb[alone], gk[alone], gl[alone], gap[alone]
         mid = 0.5 * (pos[gb, gk] + pos[gb, gl])  # (P, 3)
-        radius = 0.5 * np.maximum(keep, gap)
+        radius = 0.5 * np.maximum(keep[gb], gap)
         over = np.maximum(
             0.0, np.linalg.norm(nxt[gb, gk] - mid[:, None], axis=-1) - radius[:, None]
         )
