@@ -140,20 +140,9 @@ def _zipped_factors(base: ScenarioConfig, variants: Sequence[str]) -> dict[str, 
     return factors
 
 
-def _link_keys(graph) -> np.ndarray:
-    """The links of a :class:`~swarmgames.network.links.LinkGraph` as sorted keys
-    ``i * N + j``, ``i < j``."""
-    return np.sort(graph.i.astype(np.int64) * np.int64(graph.n_robots) + graph.j)
-
-
-def _labels(graph) -> np.ndarray:
-    """The connected component of every robot of a link graph."""
-    from scipy.sparse import csr_array
-    from scipy.sparse.csgraph import connected_components
-
-    n = graph.n_robots
-    adjacency = csr_array((np.ones(graph.indices.size), graph.indices, graph.indptr), (n, n))
-    return connected_components(adjacency, directed=False)[1]
+def _link_keys(n: int, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+    """Links ``(i, j)``, ``i < j``, of ``n`` robots as sorted keys ``i * n + j``."""
+    return np.sort(i.astype(np.int64) * np.int64(n) + j)
 
 
 def trajectory_stages(trajectory: pd.DataFrame) -> list[np.ndarray]:
@@ -183,17 +172,19 @@ def run_connectivity(stages: Sequence[np.ndarray], model) -> dict[str, float]:
         (the connected groups of a stage that the next stage holds in more than one
         component, counted once for every extra component, summed over the stages).
     """
+    from scipy.sparse.csgraph import connected_components
+
     from swarmgames.missions.geometry import relative_neighbours
     from swarmgames.network.links import link_graph
 
     graphs = [link_graph(pos, model) for pos in stages]
-    keys = [_link_keys(g) for g in graphs]
-    labels = [_labels(g) for g in graphs]
+    keys = [_link_keys(g.n_robots, g.i, g.j) for g in graphs]
+    labels = [connected_components(g.adjacency(), directed=False)[1] for g in graphs]
     spanning_lost = splits = 0
     for t in range(len(stages) - 1):
         g = graphs[t]
         kept = relative_neighbours(stages[t], g.i, g.j, g.indptr, g.indices)
-        span = np.sort(g.i[kept].astype(np.int64) * np.int64(g.n_robots) + g.j[kept])
+        span = _link_keys(g.n_robots, g.i[kept], g.j[kept])
         spanning_lost += int(np.setdiff1d(span, keys[t + 1], assume_unique=True).size)
         before, after = labels[t], labels[t + 1]
         groups = np.unique(before.astype(np.int64) * (after.max() + 1) + after).size

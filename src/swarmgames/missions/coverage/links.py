@@ -43,6 +43,12 @@ from swarmgames.network.propagation import PropagationModel, max_range
 
 __all__ = ["LINK_CHUNK_ELEMS", "LinkKeeping", "LinkRisk"]
 
+
+def _mean_power(radio: RadioParameters) -> RadioParameters:
+    """``radio`` without shadowing or fading: the mean received power alone decides."""
+    return replace(radio, shadowing_sigma_db=0.0, nakagami_m=None)
+
+
 #: Most shortfall entries (pairs × A²) computed at once.
 LINK_CHUNK_ELEMS = 2_000_000
 
@@ -66,10 +72,7 @@ class LinkRisk:
     def __post_init__(self) -> None:
         if not (np.isfinite(self.margin_db) and self.margin_db >= 0):
             raise ValueError(f"link margin must be >= 0 dB and finite (got {self.margin_db})")
-        # The mean power alone decides, without shadowing or fading.
-        object.__setattr__(
-            self, "radio", replace(self.radio, shadowing_sigma_db=0.0, nakagami_m=None)
-        )
+        object.__setattr__(self, "radio", _mean_power(self.radio))
 
     @property
     def range_m(self) -> float:
@@ -172,10 +175,7 @@ class LinkKeeping:
     radio: RadioParameters
 
     def __post_init__(self) -> None:
-        # The mean power alone decides, without shadowing or fading.
-        object.__setattr__(
-            self, "radio", replace(self.radio, shadowing_sigma_db=0.0, nakagami_m=None)
-        )
+        object.__setattr__(self, "radio", _mean_power(self.radio))
 
     @property
     def range_m(self) -> float:
